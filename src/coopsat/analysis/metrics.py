@@ -1,0 +1,167 @@
+"""Metrics of a run: synchronisation and tracking times, final errors, thruster use.
+
+Pure NumPy on the recorded samples (a :class:`xarray.Dataset` from
+:func:`coopsat.sim.recorder.to_dataset`). Times are resolved to the record interval: a
+"settle time" is the first *recorded* instant after which a condition holds at every later
+sample, and None (JSON null) when it does not hold at the last sample.
+"""
+
+import numpy as np
+
+EXACT_PAIRS_MAX_N = 64
+"""Up to this many spacecraft every pair is compared; above it, each one against the first
+(the pairwise maximum is then bounded by twice the reported value)."""
+
+
+def quat_angle_between_deg(q_a, q_b):
+    """Rotation angle between attitudes, deg, in [0, 180]; shapes (..., 4) -> (...).
+
+    Notes
+    -----
+    ``2 atan2(|vec(q_b* ⊗ q_a)|, |scalar|)``: sign-invariant (q and −q are one attitude).
+    """
+    dot = np.abs(np.sum(q_a * q_b, axis=-1))
+    # |vec(q_b* ⊗ q_a)| = sqrt(1 − dot²) for unit quaternions; atan2 keeps precision near 0.
+    vec_norm = np.sqrt(np.clip(1.0 - dot * dot, 0.0, None))
+    return np.degrees(2.0 * np.arctan2(vec_norm, dot))
+
+
+def _pairs(n):
+    if n <= EXACT_PAIRS_MAX_N:
+        i, j = np.triu_indices(n, k=1)
+    else:
+        i, j = np.arange(1, n), np.zeros(n - 1, dtype=int)
+    return i, j
+
+
+def pairwise_attitude_error_deg(q):
+    """Largest attitude difference over pairs of spacecraft at each sample, deg.
+
+    Parameters
+    ----------
+    q : ndarray, shape (T, n, 4)
+
+    Returns
+    -------
+    ndarray, shape (T,)
+    """
+    if q.shape[1] < 2:
+        return np.zeros(q.shape[0])
+    i, j = _pairs(q.shape[1])
+    return quat_angle_between_deg(q[:, i], q[:, j]).max(axis=1)
+
+
+def pairwise_rate_difference_rad_s(omega):
+    """Largest ``|ω_i − ω_j|`` (body components, as law (3) compares them) at each sample, rad/s.
+
+    Parameters
+    ----------
+    omega : ndarray, shape (T, n, 3)
+
+    Returns
+    -------
+    ndarray, shape (T,)
+    """
+    if omega.shape[1] < 2:
+        return np.zeros(omega.shape[0])
+    i, j = _pairs(omega.shape[1])
+    return np.linalg.norm(omega[:, i] - omega[:, j], axis=-1).max(axis=1)
+
+
+def settle_time_s(t_s, ok):
+    """First sample time after which ``ok`` holds at every later sample; None if never.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (T,)
+    ok : ndarray of bool, shape (T,) or (T, k)
+        With a second axis, returns one time per column.
+
+    Returns
+    -------
+    float or None, or list of those
+    """
+    ok = np.asarray(ok, dtype=bool)
+    if ok.ndim == 2:
+        return [settle_time_s(t_s, ok[:, k]) for k in range(ok.shape[1])]
+    if not ok[-1]:
+        return None
+    bad = np.flatnonzero(~ok)
+    return float(t_s[0] if bad.size == 0 else t_s[bad[-1] + 1])
+
+
+def inertial_angular_momentum_nms(q, omega, inertia_kgm2):
+    """Total angular momentum of the formation in inertial components, N·m·s.
+
+    Parameters
+    ----------
+    q : ndarray, shape (T, n, 4)
+    omega : ndarray, shape (T, n, 3)
+    inertia_kgm2 : ndarray, shape (n, 3, 3)
+
+    Returns
+    -------
+    ndarray, shape (T, 3)
+        ``Σ_i C(q_i) I_i ω_i``. Law (3) pushes on each spacecraft in its own body axes, so it
+        does not conserve this exactly, but near agreement its torques nearly cancel: a
+        formation that starts with momentum ends spinning together, not at rest.
+    """
+    h_b = np.einsum("nij,tnj->tni", inertia_kgm2, omega)
+    s = q[..., :1]
+    u = q[..., 1:]
+    t = 2.0 * np.cross(u, h_b)
+    return (h_b + s * t + np.cross(u, t)).sum(axis=1)
+
+
+def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None):
+    """All metrics of a run as a flat dict of named numbers (unit at the end of each name).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        From :func:`coopsat.sim.recorder.to_dataset` (single run).
+    names : sequence of str
+        Spacecraft names.
+    analysis : coopsat.scenarios.schema.Analysis
+        Thresholds.
+    inertia_kgm2 : ndarray, shape (n, 3, 3)
+    omega_ref_rad_s : array_like (3,), optional
+        Reference rate of a tracking run; with ``ds.q_ref`` it enables the tracking metrics.
+
+    Returns
+    -------
+    dict of str -> float, int or None
+    """
+    t = ds["time"].values
+    q = ds["q"].values
+    omega = ds["omega"].values
+    att = pairwise_attitude_error_deg(q)
+    rate = pairwise_rate_difference_rad_s(omega)
+    synced = (att < analysis.sync_attitude_deg) & (rate < analysis.sync_rate_rad_s)
+    h = inertial_angular_momentum_nms(q, omega, inertia_kgm2)
+    m = {
+        "sync_time_s": settle_time_s(t, synced),
+        "final_attitude_spread_deg": float(att[-1]),
+        "final_rate_spread_rad_s": float(rate[-1]),
+        "final_rate_max_rad_s": float(np.linalg.norm(omega[-1], axis=-1).max()),
+        "angular_momentum_initial_nms": float(np.linalg.norm(h[0])),
+        "angular_momentum_final_nms": float(np.linalg.norm(h[-1])),
+    }
+    if "q_ref" in ds and omega_ref_rad_s is not None:
+        err_deg = quat_angle_between_deg(q, ds["q_ref"].values[:, None, :])  # (T, n)
+        rate_err = np.linalg.norm(omega - np.asarray(omega_ref_rad_s), axis=-1)  # (T, n)
+        tracking = (err_deg < analysis.sync_attitude_deg) & (rate_err < analysis.sync_rate_rad_s)
+        m["track_time_s"] = settle_time_s(t, tracking.all(axis=1))
+        m["final_track_error_deg"] = float(err_deg[-1].max())
+        m["final_track_rate_error_rad_s"] = float(rate_err[-1].max())
+        for name, ts in zip(names, settle_time_s(t, rate_err < analysis.sync_rate_rad_s)):
+            m[f"{name}_rate_settle_time_s"] = ts
+    if "impulse" in ds:
+        impulse = ds["impulse"].values[-1].sum(axis=-1)
+        for name, value in zip(names, impulse):
+            m[f"{name}_impulse_nms"] = float(value)
+    if "thruster_on_time" in ds:
+        on = ds["thruster_on_time"].values[-1].sum(axis=-1)
+        for name, value in zip(names, on):
+            m[f"{name}_on_time_s"] = float(value)
+    return m

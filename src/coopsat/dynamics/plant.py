@@ -1,0 +1,90 @@
+"""The truth plant: stacked spacecraft states and their time derivative.
+
+One :class:`PlantState` holds every spacecraft of a run, each field with a leading
+spacecraft axis ``(n, ...)`` (and a batch axis in front under ``vmap``). Attitude is always
+propagated; translation only when the scenario has an orbit (a static choice, made when the
+closed loop is traced, so a rigid-body run pays nothing for it).
+"""
+
+from typing import NamedTuple
+
+from coopsat import _jax  # noqa: F401
+
+import jax.numpy as jnp
+
+from coopsat.dynamics.rigid_body import omega_dot_b
+from coopsat.dynamics.translational import j2_accel, two_body_accel
+from coopsat.geometry.quaternion import quat_kinematics
+
+GRAVITY_MODELS = ("none", "two-body", "j2")
+
+
+class PlantState(NamedTuple):
+    """State of n spacecraft.
+
+    Attributes
+    ----------
+    q_bi : (n, 4)
+        Attitude of body B relative to inertial I, scalar-first unit quaternion.
+    omega_b : (n, 3)
+        Body rate relative to inertial, body components, rad/s.
+    h_wheels_b : (n, 3)
+        Wheel angular momentum relative to the body, body components, N·m·s.
+    r_eci : (n, 3)
+        Position, m (zero and frozen when the run has no orbit).
+    v_eci : (n, 3)
+        Velocity, m/s (likewise).
+    """
+
+    q_bi: jnp.ndarray
+    omega_b: jnp.ndarray
+    h_wheels_b: jnp.ndarray
+    r_eci: jnp.ndarray
+    v_eci: jnp.ndarray
+
+
+class PlantParams(NamedTuple):
+    """Mass properties and force-model constants (arrays; traced, never static).
+
+    Attributes
+    ----------
+    inertia_kgm2, inertia_inv : (n, 3, 3)
+    mu_m3_s2, j2, r_body_m : scalar
+        Central body's gravitational parameter, J2 and equatorial radius.
+    """
+
+    inertia_kgm2: jnp.ndarray
+    inertia_inv: jnp.ndarray
+    mu_m3_s2: jnp.ndarray
+    j2: jnp.ndarray
+    r_body_m: jnp.ndarray
+
+
+def plant_derivative(x, torque_b_nm, params, gravity):
+    """Time derivative of :class:`PlantState`.
+
+    Parameters
+    ----------
+    x : PlantState
+    torque_b_nm : array, shape (n, 3)
+        Torque acting on the bodies, N·m (actuators plus disturbances).
+    params : PlantParams
+    gravity : {"none", "two-body", "j2"}
+        Static: "none" freezes position and velocity.
+
+    Returns
+    -------
+    PlantState
+        Derivatives; ``h_wheels_b`` is constant until wheels are actuated.
+    """
+    dq = quat_kinematics(x.q_bi, x.omega_b)
+    dw = omega_dot_b(x.omega_b, torque_b_nm, params.inertia_kgm2, params.inertia_inv, x.h_wheels_b)
+    zeros3 = jnp.zeros_like(x.omega_b)
+    if gravity == "none":
+        dr, dv = zeros3, zeros3
+    else:
+        dr = x.v_eci
+        dv = two_body_accel(x.r_eci, params.mu_m3_s2)
+        if gravity == "j2":
+            dv = dv + j2_accel(x.r_eci, params.mu_m3_s2, params.j2, params.r_body_m)
+    return PlantState(dq, dw, zeros3, dr, dv)

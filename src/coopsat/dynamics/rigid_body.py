@@ -1,0 +1,56 @@
+"""Rigid-body rotational dynamics with optional wheel momentum.
+
+``I ω̇ + ω × (I ω + h_w) = τ`` in the body frame (SPEC §0: the 2010 paper's eq. (2) drops the
+I in front of ω̇, a typo). ``h_w`` is the wheels' angular momentum in body components; with no
+wheels it is zero.
+"""
+
+from coopsat import _jax  # noqa: F401
+
+import jax.numpy as jnp
+
+
+def matvec3(m, v):
+    """``m @ v`` for stacks of 3×3 matrices, written elementwise so that XLA fuses it.
+
+    Parameters
+    ----------
+    m : array_like, shape (..., 3, 3)
+    v : array_like, shape (..., 3)
+
+    Returns
+    -------
+    jax.Array, shape (..., 3)
+    """
+    return jnp.sum(m * v[..., None, :], axis=-1)
+
+
+def omega_dot_b(omega_b, torque_b_nm, inertia_kgm2, inertia_inv, h_wheels_b_nms):
+    """Angular acceleration of the body, rad/s².
+
+    Parameters
+    ----------
+    omega_b : array_like, shape (..., 3)
+        Body rate relative to inertial, body components, rad/s.
+    torque_b_nm : array_like, shape (..., 3)
+        External plus control torque on the body (wheel reaction excluded), N·m.
+    inertia_kgm2, inertia_inv : array_like, shape (..., 3, 3)
+        Inertia about the centre of mass (body frame), kg·m², and its inverse.
+    h_wheels_b_nms : array_like, shape (..., 3)
+        Wheel angular momentum relative to the body, body components, N·m·s.
+
+    Returns
+    -------
+    jax.Array, shape (..., 3)
+
+    Notes
+    -----
+    Euler's equation, SPEC §0; 2010 consensus paper eq. (2) with the inertia restored.
+    """
+    h_total = matvec3(inertia_kgm2, omega_b) + h_wheels_b_nms
+    return matvec3(inertia_inv, torque_b_nm - jnp.cross(omega_b, h_total))
+
+
+def rotational_energy_j(omega_b, inertia_kgm2):
+    """Rotational kinetic energy ``½ ωᵀ I ω``, J; shapes (..., 3), (..., 3, 3) -> (...)."""
+    return 0.5 * jnp.sum(omega_b * matvec3(inertia_kgm2, omega_b), axis=-1)

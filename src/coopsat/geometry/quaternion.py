@@ -1,0 +1,217 @@
+"""Quaternion algebra, vectorised over leading axes.
+
+Convention (SPEC §0, docs/conventions.md): scalar-first ``q = [q0, q1, q2, q3]``, Hamilton
+product, and ``q_bi`` takes body-frame components to inertial-frame components,
+``v_i = q_bi ⊗ [0, v_b] ⊗ q_bi*``. Kinematics ``q̇ = ½ q ⊗ [0, ω_b]`` is the Ω(ω) matrix of the
+2010 consensus paper, eq. (1). The error (relative) quaternion of i with respect to j is
+``q_j* ⊗ q_i`` (the paper's H(q_j * q_i) is its vector part).
+
+Every function takes arrays of shape ``(..., 4)`` (and ``(..., 3)`` for vectors) and works on
+NumPy and JAX arrays alike; inside the compiled loop they trace to fused elementwise code.
+"""
+
+from coopsat import _jax  # noqa: F401  (float64 on before any array is made)
+
+import jax.numpy as jnp
+
+
+def quat_multiply(p, q):
+    """Hamilton product ``p ⊗ q``.
+
+    Parameters
+    ----------
+    p, q : array_like, shape (..., 4)
+        Scalar-first quaternions; leading axes broadcast.
+
+    Returns
+    -------
+    jax.Array, shape (..., 4)
+
+    Notes
+    -----
+    The matrix form is the one printed in the 2010 consensus paper (§1.1).
+    """
+    p0, p1, p2, p3 = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    q0, q1, q2, q3 = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return jnp.stack(
+        [
+            p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3,
+            p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
+            p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1,
+            p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0,
+        ],
+        axis=-1,
+    )
+
+
+def quat_conjugate(q):
+    """Conjugate ``q* = [q0, −q1, −q2, −q3]`` (the inverse of a unit quaternion), shape (..., 4)."""
+    return q * jnp.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_normalize(q):
+    """Scale to unit norm, shape (..., 4). A zero quaternion gives NaN: validate input first."""
+    return q / jnp.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def quat_positive(q):
+    """Flip sign to the ``q0 ≥ 0`` hemisphere (same rotation, short way round), shape (..., 4)."""
+    return jnp.where(q[..., :1] < 0.0, -q, q)
+
+
+def quat_error(q_i, q_j):
+    """Error quaternion of i with respect to j, ``q_j* ⊗ q_i``, shape (..., 4).
+
+    Notes
+    -----
+    The argument of H(·) in laws (3) and (4) of the 2010 consensus paper.
+    """
+    return quat_multiply(quat_conjugate(q_j), q_i)
+
+
+def quat_rotate(q, v):
+    """Rotate vectors: ``q ⊗ [0, v] ⊗ q*`` for unit ``q``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit quaternion ``q_ab`` (takes frame-b components to frame-a components).
+    v : array_like, shape (..., 3)
+        Vector components in frame b.
+
+    Returns
+    -------
+    jax.Array, shape (..., 3)
+        The same vector's components in frame a.
+    """
+    s = q[..., :1]
+    u = q[..., 1:]
+    t = 2.0 * jnp.cross(u, v)
+    return v + s * t + jnp.cross(u, t)
+
+
+def quat_to_dcm(q):
+    """Direction-cosine matrix ``C_ab`` of a unit ``q_ab``: ``v_a = C_ab @ v_b``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+
+    Returns
+    -------
+    jax.Array, shape (..., 3, 3)
+    """
+    q0, q1, q2, q3 = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    rows = [
+        [1 - 2 * (q2 * q2 + q3 * q3), 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
+        [2 * (q1 * q2 + q0 * q3), 1 - 2 * (q1 * q1 + q3 * q3), 2 * (q2 * q3 - q0 * q1)],
+        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), 1 - 2 * (q1 * q1 + q2 * q2)],
+    ]
+    return jnp.stack([jnp.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def dcm_to_quat(c):
+    """Unit quaternion (``q0 ≥ 0``) of a rotation matrix ``C_ab``, shape (..., 3, 3) -> (..., 4).
+
+    Notes
+    -----
+    Shepperd's method: take the largest of the four squared components so that the division
+    is always well conditioned. All four candidates are computed and the best one selected,
+    which keeps the function branch-free (traceable, vectorised).
+    """
+    tr = jnp.trace(c, axis1=-2, axis2=-1)
+    d0, d1, d2 = c[..., 0, 0], c[..., 1, 1], c[..., 2, 2]
+    cand = jnp.stack(
+        [
+            jnp.stack(
+                [1 + tr, c[..., 2, 1] - c[..., 1, 2], c[..., 0, 2] - c[..., 2, 0], c[..., 1, 0] - c[..., 0, 1]],
+                axis=-1,
+            ),
+            jnp.stack(
+                [c[..., 2, 1] - c[..., 1, 2], 1 + 2 * d0 - tr, c[..., 0, 1] + c[..., 1, 0], c[..., 0, 2] + c[..., 2, 0]],
+                axis=-1,
+            ),
+            jnp.stack(
+                [c[..., 0, 2] - c[..., 2, 0], c[..., 0, 1] + c[..., 1, 0], 1 + 2 * d1 - tr, c[..., 1, 2] + c[..., 2, 1]],
+                axis=-1,
+            ),
+            jnp.stack(
+                [c[..., 1, 0] - c[..., 0, 1], c[..., 0, 2] + c[..., 2, 0], c[..., 1, 2] + c[..., 2, 1], 1 + 2 * d2 - tr],
+                axis=-1,
+            ),
+        ],
+        axis=-2,
+    )
+    best = jnp.argmax(jnp.stack([tr, d0, d1, d2], axis=-1), axis=-1)
+    q = jnp.take_along_axis(cand, best[..., None, None], axis=-2)[..., 0, :]
+    return quat_positive(quat_normalize(q))
+
+
+def quat_angle(q):
+    """Principal rotation angle in [0, π] rad of a unit quaternion, shape (..., 4) -> (...).
+
+    Notes
+    -----
+    ``2 atan2(|vec q|, |q0|)`` is accurate near 0 and π, unlike ``2 acos(q0)``.
+    """
+    return 2.0 * jnp.arctan2(jnp.linalg.norm(q[..., 1:], axis=-1), jnp.abs(q[..., 0]))
+
+
+def quat_from_axis_angle(axis, angle_rad):
+    """Unit quaternion rotating by ``angle_rad`` about the unit ``axis``.
+
+    Parameters
+    ----------
+    axis : array_like, shape (..., 3)
+        Unit rotation axis.
+    angle_rad : array_like, shape (...)
+
+    Returns
+    -------
+    jax.Array, shape (..., 4)
+    """
+    half = 0.5 * jnp.asarray(angle_rad)[..., None]
+    return jnp.concatenate([jnp.cos(half), jnp.sin(half) * axis], axis=-1)
+
+
+def quat_exp_rate(omega_b, t_s):
+    """Rotation accumulated by a constant body rate over ``t_s``: ``exp(½ [0, ω] t)``.
+
+    Parameters
+    ----------
+    omega_b : array_like, shape (..., 3)
+        Constant body-frame rate, rad/s.
+    t_s : array_like, shape (...)
+        Elapsed time, s.
+
+    Returns
+    -------
+    jax.Array, shape (..., 4)
+        ``q(t) = q(0) ⊗ quat_exp_rate(ω, t)`` solves ``q̇ = ½ q ⊗ [0, ω]`` exactly.
+    """
+    t = jnp.asarray(t_s)[..., None]
+    rate = jnp.linalg.norm(omega_b, axis=-1, keepdims=True)
+    half = 0.5 * rate * t
+    # sin(½|ω|t)/|ω| written with sinc so that ω = 0 is exact and differentiable.
+    sin_over_rate = 0.5 * t * jnp.sinc(half / jnp.pi)
+    return jnp.concatenate([jnp.cos(half), sin_over_rate * omega_b], axis=-1)
+
+
+def quat_kinematics(q, omega_b):
+    """Attitude kinematics ``q̇ = ½ q ⊗ [0, ω_b]``, shapes (..., 4), (..., 3) -> (..., 4).
+
+    Notes
+    -----
+    2010 consensus paper, eq. (1): ``q̇ = ½ Ω(ω) q``.
+    """
+    q0, q1, q2, q3 = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    wx, wy, wz = omega_b[..., 0], omega_b[..., 1], omega_b[..., 2]
+    return 0.5 * jnp.stack(
+        [
+            -q1 * wx - q2 * wy - q3 * wz,
+            q0 * wx - q3 * wy + q2 * wz,
+            q3 * wx + q0 * wy - q1 * wz,
+            -q2 * wx + q1 * wy + q0 * wz,
+        ],
+        axis=-1,
+    )

@@ -1,0 +1,209 @@
+"""Communication graphs: construction, adjacency, Laplacian, spanning-tree check.
+
+Direction convention, fixed here once for the whole package (DESIGN §3):
+
+* an edge ``(j, i)`` means **j transmits to i** (i hears j);
+* ``A[i, j] > 0`` iff i hears j, with the link's weight;
+* ``L = diag(A·1) − A`` (row sums: in-degree), so a consensus law ``−Σ_j a_ij (x_i − x_j)``
+  is ``−(L ⊗ I) x``.
+
+networkx's ``directed_laplacian``/``laplacian_matrix`` on a DiGraph use out-degree; we build
+``L`` from ``A`` directly instead. Design-time code (NumPy/networkx); the compiled loop gets the
+edge arrays of :class:`Links`.
+"""
+
+from dataclasses import dataclass
+
+import networkx as nx
+import numpy as np
+
+
+class GraphError(ValueError):
+    """A graph that is malformed or cannot do what the scenario asks of it."""
+
+
+@dataclass(frozen=True)
+class Links:
+    """A weighted directed graph as edge arrays, the form the compiled loop consumes.
+
+    Attributes
+    ----------
+    src : ndarray of int, shape (E,)
+        Transmitting spacecraft index j of each edge.
+    dst : ndarray of int, shape (E,)
+        Receiving spacecraft index i of each edge; edges are sorted by ``dst``.
+    weight : ndarray of float, shape (E,)
+        ``a_ij`` of each edge, > 0.
+    n : int
+        Number of spacecraft (nodes), including any that hear nobody.
+    """
+
+    src: np.ndarray
+    dst: np.ndarray
+    weight: np.ndarray
+    n: int
+
+
+def _check_n(n):
+    if n < 1:
+        raise GraphError(f"network: need at least one spacecraft, got {n}")
+
+
+def ring_adjacency(n, directed=False):
+    """Ring 0–1–…–(n−1)–0; directed: i hears i−1 (information flows 0→1→…→0).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        Unit-weight adjacency ``A[i, j]`` (i hears j).
+    """
+    _check_n(n)
+    a = np.zeros((n, n))
+    if n == 1:
+        return a
+    idx = np.arange(n)
+    a[idx, (idx - 1) % n] = 1.0
+    if not directed:
+        a[idx, (idx + 1) % n] = 1.0
+    return a
+
+
+def chain_adjacency(n, directed=False):
+    """Chain 0–1–…–(n−1); directed: i hears i−1 (0 is the root). Shape (n, n)."""
+    _check_n(n)
+    a = np.zeros((n, n))
+    idx = np.arange(1, n)
+    a[idx, idx - 1] = 1.0
+    if not directed:
+        a[idx - 1, idx] = 1.0
+    return a
+
+
+def star_adjacency(n, directed=False, hub=0):
+    """Star around ``hub``; directed: every other node hears the hub only. Shape (n, n)."""
+    _check_n(n)
+    a = np.zeros((n, n))
+    others = np.array([k for k in range(n) if k != hub], dtype=int)
+    a[others, hub] = 1.0
+    if not directed:
+        a[hub, others] = 1.0
+    return a
+
+
+def complete_adjacency(n):
+    """Complete graph, every node hears every other with weight 1. Shape (n, n)."""
+    _check_n(n)
+    return np.ones((n, n)) - np.eye(n)
+
+
+NAMED_GRAPHS = {
+    "ring": ring_adjacency,
+    "chain": chain_adjacency,
+    "star": star_adjacency,
+    "complete": lambda n, directed=False: complete_adjacency(n),
+}
+
+
+def adjacency_from_edges(n, edges, directed):
+    """Adjacency from ``(j, i, weight)`` triples; undirected edges are added both ways.
+
+    Parameters
+    ----------
+    n : int
+    edges : iterable of (int, int, float)
+        Transmitter j, receiver i, weight a_ij > 0.
+    directed : bool
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+    """
+    a = np.zeros((n, n))
+    for j, i, w in edges:
+        if i == j:
+            raise GraphError(f"network.edges: self-loop on spacecraft {i} (a spacecraft does not hear itself)")
+        if not w > 0.0:
+            raise GraphError(f"network.edges: weight of edge {j}->{i} must be > 0, got {w}")
+        a[i, j] = w
+        if not directed:
+            a[j, i] = w
+    return a
+
+
+def validate_adjacency(a):
+    """Check an adjacency matrix: square, finite, non-negative, zero diagonal.
+
+    Returns
+    -------
+    ndarray, shape (n, n), float
+    """
+    a = np.asarray(a, dtype=float)
+    if a.ndim != 2 or a.shape[0] != a.shape[1]:
+        raise GraphError(f"network.adjacency: must be a square n×n matrix, got shape {a.shape}")
+    if not np.all(np.isfinite(a)) or np.any(a < 0.0):
+        raise GraphError("network.adjacency: entries must be finite and >= 0")
+    if np.any(np.diag(a) != 0.0):
+        raise GraphError("network.adjacency: diagonal must be zero (a spacecraft does not hear itself)")
+    return a
+
+
+def laplacian(a):
+    """Graph Laplacian ``L = diag(A·1) − A`` (in-degree convention), shape (n, n)."""
+    a = np.asarray(a, dtype=float)
+    return np.diag(a.sum(axis=1)) - a
+
+
+def links_from_adjacency(a):
+    """Edge arrays of ``A`` sorted by receiver (for segment sums in the compiled loop)."""
+    a = np.asarray(a, dtype=float)
+    dst, src = np.nonzero(a)  # row-major: sorted by dst (= i), then src
+    return Links(src=src.astype(np.int32), dst=dst.astype(np.int32), weight=a[dst, src], n=a.shape[0])
+
+
+def information_digraph(a):
+    """networkx DiGraph with an edge j→i for every ``a_ij > 0`` (direction of information flow)."""
+    a = np.asarray(a, dtype=float)
+    g = nx.DiGraph()
+    g.add_nodes_from(range(a.shape[0]))
+    dst, src = np.nonzero(a)
+    g.add_weighted_edges_from(zip(src.tolist(), dst.tolist(), a[dst, src].tolist()))
+    return g
+
+
+def spanning_tree_roots(a):
+    """Nodes from which information reaches every node (roots of a directed spanning tree).
+
+    Returns
+    -------
+    list of int
+        Empty when the graph has no directed spanning tree, in which case no consensus law
+        can bring all spacecraft to agreement. For an undirected graph this is "connected".
+
+    Notes
+    -----
+    A digraph has a spanning tree iff its condensation has exactly one source component;
+    the roots are that component's nodes (Ren & Beard, 2005).
+    """
+    g = information_digraph(a)
+    cond = nx.condensation(g)
+    sources = [c for c in cond.nodes if cond.in_degree(c) == 0]
+    if len(sources) != 1:
+        return []
+    return sorted(cond.nodes[sources[0]]["members"])
+
+
+def describe_components(a, names=None):
+    """One-line description of why a graph has no spanning tree, naming the node groups.
+
+    Parameters
+    ----------
+    a : array_like, shape (n, n)
+    names : sequence of str, optional
+        Node names (default: indices).
+    """
+    g = information_digraph(a)
+    cond = nx.condensation(g)
+    label = (lambda k: str(k)) if names is None else (lambda k: names[k])
+    sources = [sorted(cond.nodes[c]["members"]) for c in cond.nodes if cond.in_degree(c) == 0]
+    groups = ["{" + ", ".join(label(k) for k in grp) + "}" for grp in sources]
+    return f"{len(sources)} groups hear no one outside themselves: " + " ".join(groups)

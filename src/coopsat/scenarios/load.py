@@ -1,0 +1,215 @@
+"""Read a scenario (bundled name or TOML file), apply overrides and defaults, validate.
+
+No code runs from a scenario file: it is parsed with :mod:`tomllib` and validated by
+:class:`~coopsat.scenarios.schema.Scenario`. Every problem surfaces as one
+:class:`ScenarioError` whose message names the field (``controller.alpha: …``).
+"""
+
+import copy
+import tomllib
+from importlib import resources
+from pathlib import Path
+
+import tomli_w
+from pydantic import ValidationError
+
+from coopsat.scenarios.schema import Scenario
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be loaded, validated or built; the message is one line."""
+
+
+BUNDLED_PACKAGE = "coopsat.scenarios.bundled"
+
+
+def bundled_names():
+    """Names of the bundled scenarios, sorted."""
+    files = resources.files(BUNDLED_PACKAGE).iterdir()
+    return sorted(f.name[: -len(".toml")] for f in files if f.name.endswith(".toml"))
+
+
+def bundled_text(name):
+    """TOML text of a bundled scenario."""
+    if name not in bundled_names():
+        raise ScenarioError(f"no bundled scenario named '{name}' (coopsat list shows them)")
+    return resources.files(BUNDLED_PACKAGE).joinpath(f"{name}.toml").read_text(encoding="utf-8")
+
+
+def read_raw(name_or_path, _depth=0):
+    """Parse a scenario file, or a bundled scenario by name, into a plain dict.
+
+    A top-level ``extends = "other"`` (a bundled name, or a ``.toml`` path relative to this
+    file) starts from that scenario and overlays this file on it (:func:`deep_merge`), so a
+    variant states only what it changes.
+
+    Returns
+    -------
+    raw : dict
+    default_name : str
+        The file's stem (used when the file sets no ``name``).
+    """
+    path = Path(name_or_path)
+    if path.suffix == ".toml" or path.exists():
+        if not path.is_file():
+            raise ScenarioError(f"{name_or_path}: no such scenario file")
+        text = path.read_text(encoding="utf-8")
+        origin, default_name = str(path), path.stem
+    else:
+        text, origin, default_name = bundled_text(str(name_or_path)), str(name_or_path), str(name_or_path)
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ScenarioError(f"{origin}: not valid TOML: {err}") from None
+    base = raw.pop("extends", None)
+    if base is not None:
+        if not isinstance(base, str):
+            raise ScenarioError(f"{origin}: extends must name a bundled scenario or a .toml file")
+        if _depth >= 8:
+            raise ScenarioError(f"{origin}: extends chain deeper than 8 (a cycle?)")
+        base_path = path.parent / base if path.suffix == ".toml" and base.endswith(".toml") else base
+        base_raw, _ = read_raw(base_path, _depth=_depth + 1)
+        base_raw.pop("name", None)
+        raw = deep_merge(base_raw, raw)
+    return raw, default_name
+
+
+def deep_merge(base, child):
+    """``child`` over ``base``: tables merge key by key, everything else (arrays too) replaces.
+
+    A table whose ``kind`` changes replaces the base's table whole: another kind is another
+    implementation, and the base's fields may mean nothing to it.
+    """
+    out = dict(base)
+    for key, value in child.items():
+        same_kind = not isinstance(value, dict) or value.get("kind", out.get(key, {}).get("kind")) == out.get(key, {}).get("kind")
+        if isinstance(value, dict) and isinstance(out.get(key), dict) and same_kind:
+            out[key] = deep_merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def _parse_value(text):
+    """A ``--set`` value as TOML (numbers, booleans, arrays, quoted strings), else a bare string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_override(raw, assignment):
+    """Apply one ``key.path=value`` override in place.
+
+    ``spacecraft.2.omega_b_rad_s=[0, 0, 0]`` addresses the third spacecraft (indices from 0);
+    tables that do not exist yet are created.
+    """
+    if "=" not in assignment:
+        raise ScenarioError(f"--set {assignment}: expected key.path=value")
+    key, value = assignment.split("=", 1)
+    parts = [p for p in key.strip().split(".") if p]
+    if not parts:
+        raise ScenarioError(f"--set {assignment}: empty key")
+    node = raw
+    for depth, part in enumerate(parts[:-1]):
+        where = ".".join(parts[: depth + 1])
+        if isinstance(node, list):
+            if not part.isdigit() or int(part) >= len(node):
+                raise ScenarioError(f"--set {key}: {where} is not an index of a list of {len(node)}")
+            node = node[int(part)]
+        else:
+            node = node.setdefault(part, {})
+        if not isinstance(node, (dict, list)):
+            raise ScenarioError(f"--set {key}: {where} is a value, not a table")
+    last = parts[-1]
+    if isinstance(node, list):
+        if not last.isdigit() or int(last) >= len(node):
+            raise ScenarioError(f"--set {key}: {last} is not an index of a list of {len(node)}")
+        node[int(last)] = _parse_value(value.strip())
+    else:
+        node[last] = _parse_value(value.strip())
+
+
+def _merge_defaults(raw):
+    """Give each ``[[spacecraft]]`` the ``[spacecraft_defaults]`` it does not set, and a name."""
+    raw = copy.deepcopy(raw)
+    defaults = raw.pop("spacecraft_defaults", {}) or {}
+    if not isinstance(defaults, dict):
+        raise ScenarioError("spacecraft_defaults: must be a table")
+    from coopsat.scenarios.schema import SpacecraftDefaults
+
+    try:
+        SpacecraftDefaults.model_validate(defaults)
+    except ValidationError as err:
+        raise ScenarioError(format_validation_error(err, prefix="spacecraft_defaults")) from None
+    sc_list = raw.get("spacecraft", [])
+    if not isinstance(sc_list, list):
+        raise ScenarioError("spacecraft: must be an array of tables [[spacecraft]]")
+    merged = []
+    for k, sc in enumerate(sc_list):
+        if not isinstance(sc, dict):
+            raise ScenarioError(f"spacecraft[{k}]: must be a table")
+        entry = {**defaults, **sc}
+        entry.setdefault("name", f"sat{k + 1}")
+        merged.append(entry)
+    raw["spacecraft"] = merged
+    return raw
+
+
+def format_validation_error(err, prefix=""):
+    """One line naming each failing field: ``controller.alpha: Input should be greater than 0``."""
+    tags = {"none", "consensus-sync", "consensus-track", "ideal-torque", "pwm-thrusters"}
+    msgs = []
+    for e in err.errors():
+        parts = [prefix] if prefix else []
+        for p in e["loc"]:
+            if isinstance(p, int):
+                parts[-1:] = [f"{parts[-1]}[{p}]"] if parts else [f"[{p}]"]
+            elif p not in tags:
+                parts.append(str(p))
+        where = ".".join(parts) or "scenario"
+        text = e["msg"].removeprefix("Value error, ")
+        if e["type"] == "extra_forbidden":
+            text = "unknown field (misspelt?)"
+        msgs.append(f"{where}: {text}")
+    extra = f" (+{len(msgs) - 3} more)" if len(msgs) > 3 else ""
+    return "; ".join(msgs[:3]) + extra
+
+
+def load_scenario(name_or_path, overrides=()):
+    """Load, override and validate a scenario.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        Bundled scenario name or path to a TOML file.
+    overrides : iterable of str
+        ``key.path=value`` assignments applied before validation.
+
+    Returns
+    -------
+    Scenario
+    """
+    raw, default_name = read_raw(name_or_path)
+    for assignment in overrides:
+        apply_override(raw, assignment)
+    raw.setdefault("name", default_name)
+    raw = _merge_defaults(raw)
+    try:
+        return Scenario.model_validate(raw)
+    except ValidationError as err:
+        raise ScenarioError(format_validation_error(err)) from None
+
+
+def resolved_toml(scenario):
+    """The validated scenario with every default filled in, as TOML text (replayable)."""
+    return tomli_w.dumps(_plain(scenario.model_dump(exclude_none=True)))
+
+
+def _plain(obj):
+    """Tuples to lists, and infinite defaults dropped (they mean "unset": no saturation)."""
+    if isinstance(obj, dict):
+        return {k: _plain(v) for k, v in obj.items() if not (isinstance(v, float) and v == float("inf"))}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    return obj

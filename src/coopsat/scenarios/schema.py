@@ -1,0 +1,296 @@
+"""Scenario file schema: pydantic models with ``extra="forbid"``.
+
+Every field is SI; only fields whose name ends in ``_deg`` are in degrees (converted when the
+scenario is built). docs/scenarios.md documents each field; keep the two in step.
+"""
+
+from typing import Annotated, Literal, Union
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+Quat = Annotated[list[float], Field(min_length=4, max_length=4)]
+
+QUAT_NORM_TOL = 0.05
+"""Scenario quaternions are normalised at load; a norm further than this from 1 is a typo."""
+
+
+def whole_ratio(a, b):
+    """``a / b`` as an int when it is a whole number (to 1e-9 relative), else None."""
+    r = a / b
+    k = round(r)
+    return k if k >= 1 and abs(r - k) <= 1e-9 * max(1.0, r) else None
+
+
+def _whole_multiple(a, b, name_a, name_b):
+    if whole_ratio(a, b) is None:
+        raise ValueError(f"{name_a} ({a:g} s) must be a whole multiple of {name_b} ({b:g} s)")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def _check_quaternion(q):
+    norm = float(np.linalg.norm(q))
+    if not np.all(np.isfinite(q)) or norm == 0.0:
+        raise ValueError("must be a non-zero, finite quaternion [q0, q1, q2, q3] (scalar first)")
+    if abs(norm - 1.0) > QUAT_NORM_TOL:
+        raise ValueError(
+            f"norm is {norm:.4g}; expected a unit quaternion (scalar first; within {QUAT_NORM_TOL:g} of 1, "
+            "rounded values are normalised)"
+        )
+    return q
+
+
+def _check_finite(v):
+    if not np.all(np.isfinite(v)):
+        raise ValueError("must be finite")
+    return v
+
+
+class Sim(_Strict):
+    """``[sim]``: time base of the run."""
+
+    t_final_s: float = Field(gt=0, description="Run length, s.")
+    dt_s: float = Field(gt=0, description="Base tick, s: integration step and time quantum.")
+    substeps: int = Field(1, ge=1, le=64, description="RK4 steps per tick (per switch-free segment).")
+    record_interval_s: float | None = Field(
+        None, gt=0, description="Time between recorded samples, s; default one control period."
+    )
+
+
+class Elements(_Strict):
+    """Classical orbital elements of one spacecraft (``[spacecraft.elements]``)."""
+
+    a_m: float = Field(gt=0)
+    e: float = Field(0.0, ge=0, lt=1)
+    i_deg: float = 0.0
+    raan_deg: float = 0.0
+    argp_deg: float = 0.0
+    mean_anomaly_deg: float = 0.0
+
+
+class SpacecraftDefaults(_Strict):
+    """``[spacecraft_defaults]``: fields every ``[[spacecraft]]`` inherits unless it sets them."""
+
+    inertia_kgm2: list[float] | list[list[float]] | None = None
+    q_bi: Quat | None = None
+    omega_b_rad_s: Vec3 | None = None
+    h_wheels_b_nms: Vec3 | None = None
+
+
+class Spacecraft(_Strict):
+    """One ``[[spacecraft]]`` entry (after defaults are merged)."""
+
+    name: str | None = Field(None, description="Unique name; default sat1, sat2, … by position.")
+    inertia_kgm2: list[float] | list[list[float]] = Field(
+        description="Diagonal [Ixx, Iyy, Izz] or full 3×3 inertia about the centre of mass, body frame, kg·m²."
+    )
+    q_bi: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Initial attitude, body relative to inertial, scalar first.")
+    omega_b_rad_s: Vec3 = Field([0.0, 0.0, 0.0], description="Initial body rate, body frame, rad/s.")
+    h_wheels_b_nms: Vec3 = Field([0.0, 0.0, 0.0], description="Wheel angular momentum, body frame, N·m·s.")
+    r_eci_m: Vec3 | None = None
+    v_eci_m_s: Vec3 | None = None
+    elements: Elements | None = None
+
+    @field_validator("q_bi")
+    @classmethod
+    def _unit_quaternion(cls, q):
+        return _check_quaternion(q)
+
+    @field_validator("omega_b_rad_s", "h_wheels_b_nms", "r_eci_m", "v_eci_m_s")
+    @classmethod
+    def _finite(cls, v):
+        return v if v is None else _check_finite(v)
+
+    @field_validator("inertia_kgm2")
+    @classmethod
+    def _physical_inertia(cls, inertia):
+        m = np.diag(inertia) if np.ndim(inertia) == 1 else np.asarray(inertia, dtype=float)
+        if m.shape != (3, 3):
+            raise ValueError("must be [Ixx, Iyy, Izz] or a 3×3 matrix, kg·m²")
+        if not np.all(np.isfinite(m)) or not np.allclose(m, m.T, rtol=1e-12, atol=0.0):
+            raise ValueError("must be finite and symmetric, kg·m²")
+        eig = np.linalg.eigvalsh(m)
+        if eig[0] <= 0.0:
+            raise ValueError(f"must be positive definite (principal moments {eig.round(6).tolist()} kg·m²)")
+        if eig[0] + eig[1] < eig[2] * (1.0 - 1e-9):
+            raise ValueError(
+                f"principal moments {eig.round(6).tolist()} kg·m² break the triangle inequality "
+                "(I1 + I2 >= I3): no rigid body has them"
+            )
+        return inertia
+
+    @model_validator(mode="after")
+    def _one_translational_source(self):
+        if self.elements is not None and (self.r_eci_m is not None or self.v_eci_m_s is not None):
+            raise ValueError("give either elements or r_eci_m/v_eci_m_s, not both")
+        if (self.r_eci_m is None) != (self.v_eci_m_s is None):
+            raise ValueError("r_eci_m and v_eci_m_s go together")
+        return self
+
+
+class Orbit(_Strict):
+    """``[orbit]``: translational truth model (omit for attitude-only runs)."""
+
+    gravity: Literal["two-body", "j2"] = "two-body"
+    mu_m3_s2: float = Field(3.986004418e14, gt=0, description="Central body's gravitational parameter, m³/s².")
+    j2: float = Field(1.08262668e-3, description="Central body's J2.")
+    r_body_m: float = Field(6378137.0, gt=0, description="Central body's equatorial radius, m.")
+
+
+class Network(_Strict):
+    """``[network]``: who hears whom."""
+
+    kind: Literal["none", "ring", "chain", "star", "complete", "edges", "adjacency"] = "none"
+    directed: bool = Field(False, description="Named graphs and edge lists: one-way links (i hears j only).")
+    weight: float = Field(1.0, gt=0, description="Weight of every link of a named graph.")
+    hub: str | None = Field(None, description="Star: the hub spacecraft (default the first).")
+    edges: list[tuple[str, str, float]] | None = Field(
+        None, description="kind = 'edges': [transmitter, receiver, weight] by spacecraft name."
+    )
+    adjacency: list[list[float]] | None = Field(None, description="kind = 'adjacency': A[i][j] = weight with which i hears j.")
+    require_spanning_tree: bool = Field(
+        True, description="A consensus law on a graph without a spanning tree is an error (false: a warning)."
+    )
+
+    @model_validator(mode="after")
+    def _fields_match_kind(self):
+        if self.kind == "edges" and not self.edges:
+            raise ValueError("kind = 'edges' needs a non-empty edges list [[transmitter, receiver, weight], ...]")
+        if self.kind == "adjacency" and self.adjacency is None:
+            raise ValueError("kind = 'adjacency' needs an adjacency matrix")
+        if self.edges is not None and self.kind != "edges":
+            raise ValueError("edges is only read when kind = 'edges'")
+        if self.adjacency is not None and self.kind != "adjacency":
+            raise ValueError("adjacency is only read when kind = 'adjacency'")
+        if self.hub is not None and self.kind != "star":
+            raise ValueError("hub is only read when kind = 'star'")
+        return self
+
+
+class NoController(_Strict):
+    """``kind = "none"``: torque-free (no control)."""
+
+    kind: Literal["none"]
+    period_s: float | None = Field(None, gt=0, description="Default: sim.dt_s.")
+
+
+class ConsensusSync(_Strict):
+    """``kind = "consensus-sync"``: law (3) of the 2010 consensus paper."""
+
+    kind: Literal["consensus-sync"]
+    period_s: float = Field(gt=0, description="Control period (zero-order hold; PWM period), s.")
+    alpha: float = Field(gt=0, description="Attitude consensus gain α, N·m.")
+    beta: float = Field(gt=0, description="Rate consensus gain β, N·m·s/rad.")
+    short_way: bool = Field(False, description="Error quaternions on the q0 >= 0 hemisphere (paper: false).")
+
+
+class ConsensusTrack(ConsensusSync):
+    """``kind = "consensus-track"``: law (4), law (3) plus tracking of a reference."""
+
+    kind: Literal["consensus-track"]
+    k_p: float = Field(gt=0, description="Reference attitude gain K, N·m.")
+    k_d: float = Field(gt=0, description="Reference rate gain D, N·m·s/rad.")
+    omega_ref_rad_s: Vec3 = Field(description="Constant reference body rate ω_r, rad/s.")
+    q_ref0: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Reference attitude at t = 0, scalar first.")
+
+    @field_validator("q_ref0")
+    @classmethod
+    def _unit_quaternion(cls, q):
+        return _check_quaternion(q)
+
+
+Controller = Annotated[Union[NoController, ConsensusSync, ConsensusTrack], Field(discriminator="kind")]
+
+
+class IdealTorque(_Strict):
+    """``kind = "ideal-torque"``: the commanded torque, saturated per axis."""
+
+    kind: Literal["ideal-torque"]
+    torque_max_nm: float = Field(float("inf"), gt=0, description="Saturation per body axis, N·m (default none).")
+
+
+class PwmThrusters(_Strict):
+    """``kind = "pwm-thrusters"``: a ± thruster pair per body axis, eq. (10)."""
+
+    kind: Literal["pwm-thrusters"]
+    torque_max_nm: float = Field(gt=0, description="Torque of one thruster pair T_max, N·m.")
+    min_pulse_s: float = Field(ge=0, description="Minimum pulse width τ, s (< control period).")
+
+
+Actuator = Annotated[Union[IdealTorque, PwmThrusters], Field(discriminator="kind")]
+
+
+class Analysis(_Strict):
+    """``[analysis]``: thresholds of the metrics."""
+
+    sync_attitude_deg: float = Field(1.0, gt=0, description="Pairwise attitude error that counts as synchronised, deg.")
+    sync_rate_rad_s: float = Field(0.01, gt=0, description="Pairwise rate difference that counts as synchronised, rad/s.")
+
+
+class Published(_Strict):
+    """One ``[[published]]`` number of the source paper, compared with ours after the run."""
+
+    quantity: str = Field(description="Name of one of our metrics (metrics.json key).")
+    value: float
+    unit: str
+    relation: Literal["approx", "greater", "less"] = Field(
+        "approx", description="approx: within rel_tol/abs_tol; greater/less: ours must exceed/stay below value."
+    )
+    rel_tol: float = Field(0.2, ge=0, description="approx: relative difference that still agrees.")
+    abs_tol: float = Field(0.0, ge=0, description="approx: absolute difference that still agrees (unit as value).")
+    source: str = Field("", description="Where the paper states it.")
+    note: str = Field("", description="What differs from the paper's set-up; quoted when the verdict is 'differs'.")
+
+
+class Scenario(_Strict):
+    """A whole scenario file."""
+
+    name: str
+    description: str = ""
+    seed: int = Field(0, ge=0)
+    sim: Sim
+    spacecraft: list[Spacecraft] = Field(min_length=1)
+    orbit: Orbit | None = None
+    network: Network = Network()
+    controller: Controller = NoController(kind="none")
+    actuators: Actuator = IdealTorque(kind="ideal-torque")
+    analysis: Analysis = Analysis()
+    published: list[Published] = []
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        names = [s.name for s in self.spacecraft]
+        if len(set(names)) != len(names):
+            raise ValueError(f"spacecraft: names must be unique, got {names}")
+        has_rv = [s.r_eci_m is not None or s.elements is not None for s in self.spacecraft]
+        if self.orbit is None and any(has_rv):
+            raise ValueError("spacecraft: a position or orbital elements are given but there is no [orbit] table")
+        if self.orbit is not None and not all(has_rv):
+            missing = [s.name for s, h in zip(self.spacecraft, has_rv) if not h]
+            raise ValueError(f"orbit: every spacecraft needs r_eci_m/v_eci_m_s or elements; missing for {missing}")
+        if isinstance(self.actuators, PwmThrusters) and isinstance(self.controller, NoController):
+            raise ValueError("actuators: pwm-thrusters need a controller")
+        period = self.control_period_s
+        _whole_multiple(period, self.sim.dt_s, "controller.period_s", "sim.dt_s")
+        _whole_multiple(self.record_interval_s, period, "sim.record_interval_s", "the control period")
+        _whole_multiple(self.sim.t_final_s, self.record_interval_s, "sim.t_final_s", "sim.record_interval_s")
+        if isinstance(self.actuators, PwmThrusters) and not self.actuators.min_pulse_s < period:
+            raise ValueError(
+                f"actuators.min_pulse_s ({self.actuators.min_pulse_s:g} s) must be shorter than the control period "
+                f"({period:g} s)"
+            )
+        return self
+
+    @property
+    def control_period_s(self):
+        """Control period, s (``sim.dt_s`` when there is no controller)."""
+        return self.controller.period_s if self.controller.period_s is not None else self.sim.dt_s
+
+    @property
+    def record_interval_s(self):
+        """Time between recorded samples, s."""
+        return self.sim.record_interval_s if self.sim.record_interval_s is not None else self.control_period_s

@@ -1,0 +1,122 @@
+"""The compiled closed loop's input: one immutable pytree per run (or per batch of runs).
+
+:class:`System` splits into *structure* (static, hashable: which laws, how many ticks per
+control period, …) and *data* (arrays: inertias, gains, graph edges, initial state, step). Only
+a change of structure recompiles; every number a Monte Carlo campaign disperses is data, and a
+batch of runs is a :class:`System` whose data leaves carry a leading batch axis
+(:func:`stack_systems`).
+"""
+
+import dataclasses
+from dataclasses import dataclass
+
+from coopsat import _jax  # noqa: F401
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from coopsat.dynamics.plant import PlantParams, PlantState
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Static description of the closed loop (part of the compiled program's cache key).
+
+    Attributes
+    ----------
+    n_spacecraft : int
+    gravity : {"none", "two-body", "j2"}
+        Translational force model; "none" freezes position and velocity.
+    controller : str
+        Key of :data:`coopsat.sim.engine.CONTROLLERS`.
+    actuator : str
+        Key of :data:`coopsat.sim.engine.ACTUATORS`.
+    short_way : bool
+        Controllers take error quaternions on the ``q0 ≥ 0`` hemisphere.
+    ticks_per_period : int
+        Base ticks per control period (the controller's zero-order-hold interval).
+    periods_per_record : int
+        Control periods between recorded samples.
+    substeps : int
+        RK4 steps per tick (per switch-free segment of a tick when actuation is pulsed).
+    """
+
+    n_spacecraft: int
+    gravity: str
+    controller: str
+    actuator: str
+    short_way: bool
+    ticks_per_period: int
+    periods_per_record: int
+    substeps: int
+
+
+@dataclass(frozen=True)
+class System:
+    """Everything one closed-loop run needs.
+
+    Attributes
+    ----------
+    structure : Structure
+        Static.
+    dt_s : scalar array
+        Base tick, s.
+    x0 : PlantState
+        Initial state, fields ``(n, ...)``.
+    plant : PlantParams
+    links_src, links_dst : int arrays (E,)
+        Transmitter and receiver of each directed edge (sorted by receiver).
+    links_weight : (E,)
+        Edge weights ``a_ij``.
+    controller : dict of arrays
+        Gains and references of the control law (keys depend on the law).
+    actuator : dict of arrays
+        Actuator constants (keys depend on the actuator).
+    """
+
+    structure: Structure
+    dt_s: jnp.ndarray
+    x0: PlantState
+    plant: PlantParams
+    links_src: jnp.ndarray
+    links_dst: jnp.ndarray
+    links_weight: jnp.ndarray
+    controller: dict
+    actuator: dict
+
+    @property
+    def period_s(self):
+        """Control period, s (array; batched with ``dt_s``)."""
+        return self.dt_s * self.structure.ticks_per_period
+
+
+jax.tree_util.register_dataclass(
+    System,
+    data_fields=[f.name for f in dataclasses.fields(System) if f.name != "structure"],
+    meta_fields=["structure"],
+)
+
+
+def stack_systems(systems):
+    """Stack systems of one structure into a batch (leading axis on every data leaf).
+
+    Parameters
+    ----------
+    systems : sequence of System
+        Same :class:`Structure` and the same array shapes (same graph size, same laws).
+
+    Returns
+    -------
+    System
+        Batched system for :func:`coopsat.sim.engine.simulate` with ``batched=True``.
+    """
+    structures = {s.structure for s in systems}
+    if len(structures) != 1:
+        raise ValueError("stack_systems: systems differ in structure (laws, rates or size); they cannot share a batch")
+    return jax.tree_util.tree_map(lambda *leaves: jnp.stack([jnp.asarray(v) for v in leaves]), *systems)
+
+
+def as_arrays(tree):
+    """Convert every leaf to a float64/int JAX array (NumPy scalars and lists welcome)."""
+    return jax.tree_util.tree_map(lambda v: jnp.asarray(np.asarray(v)), tree)

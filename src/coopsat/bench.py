@@ -1,0 +1,67 @@
+"""Engine throughput benchmark: spacecraft-steps per second, compile time apart.
+
+Two cases per formation size N: a torque-free rigid body (N independent bodies), and law (3)
+on an undirected ring with the controller evaluated every tick (the costliest rate) and an
+ideal torque actuator. One "spacecraft-step" is one spacecraft advanced by one RK4 tick.
+Prints numbers; asserts nothing (timings are not tests).
+"""
+
+import time
+
+import numpy as np
+
+from coopsat.dynamics.plant import PlantParams, PlantState
+from coopsat.network.topology import links_from_adjacency, ring_adjacency
+from coopsat.sim.system import Structure, System, as_arrays
+
+
+def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0):
+    """A random formation of ``n`` spacecraft for the benchmark (no orbit)."""
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    principal = rng.uniform(0.5, 1.5, size=(n, 3))
+    inertia = np.einsum("ni,ij->nij", principal, np.eye(3))
+    zeros = np.zeros((n, 3))
+    links = links_from_adjacency(ring_adjacency(n) if controller != "none" and n > 1 else np.zeros((n, n)))
+    structure = Structure(
+        n_spacecraft=n, gravity="none", controller=controller, actuator="ideal-torque", short_way=False,
+        ticks_per_period=1, periods_per_record=record_ticks, substeps=1,
+    )
+    params = {"alpha": 1.0, "beta": 2.0} if controller != "none" else {}
+    return System(
+        structure,
+        *as_arrays(
+            (
+                dt_s,
+                PlantState(q, rng.normal(scale=0.1, size=(n, 3)), zeros, zeros, zeros),
+                PlantParams(inertia, np.linalg.inv(inertia), 0.0, 0.0, 1.0),
+                links.src, links.dst, links.weight, params, {"torque_max_nm": 0.05},
+            )
+        ),
+    )
+
+
+def measure(n, controller, ticks, repeats=3):
+    """(compile s, best run s, spacecraft-steps/s) for ``ticks`` ticks of ``n`` spacecraft."""
+    from coopsat.sim.engine import simulate
+
+    record_ticks = min(1000, ticks)
+    system = bench_system(n, controller, record_ticks=record_ticks)
+    n_records = ticks // record_ticks
+    first = simulate(system, n_records, record_ticks * 0.01)
+    best = min(simulate(system, n_records, record_ticks * 0.01).run_s for _ in range(repeats))
+    return first.compile_s, best, n * n_records * record_ticks / best
+
+
+def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None):
+    """Print a throughput table for each case and size."""
+    import jax
+
+    print(f"coopsat engine benchmark: JAX {jax.__version__} on {jax.devices()[0].platform}, float64")
+    print(f"{'case':<14}{'N':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}")
+    for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
+        for n in sizes:
+            ticks = steps or int(np.clip(2e7 / n, 2_000, 1_000_000) // 1000 * 1000)
+            compile_s, run_s, rate = measure(n, controller, ticks)
+            print(f"{label:<14}{n:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}", flush=True)

@@ -1,0 +1,130 @@
+"""Command line: ``coopsat list|show|validate|run|bench``.
+
+Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
+a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
+and exits with status 2, without a traceback and without leaving a half-written run folder.
+"""
+
+import argparse
+import sys
+
+EXIT_BAD_INPUT = 2
+
+
+def _input_errors():
+    from coopsat.network.topology import GraphError
+    from coopsat.scenarios.load import ScenarioError
+    from coopsat.sim.engine import NonFiniteStateError
+
+    return (ScenarioError, GraphError, NonFiniteStateError)
+
+
+def _cmd_list(args):
+    from coopsat.scenarios.load import bundled_names, read_raw
+
+    names = bundled_names()
+    width = max(len(n) for n in names)
+    for name in names:
+        raw, _ = read_raw(name)
+        print(f"{name:<{width}}  {raw.get('description', '')}")
+    return 0
+
+
+def _cmd_show(args):
+    from coopsat.scenarios.load import bundled_text, load_scenario, resolved_toml
+
+    if args.resolved:
+        print(resolved_toml(load_scenario(args.name)), end="")
+    else:
+        print(bundled_text(args.name), end="")
+    return 0
+
+
+def _cmd_validate(args):
+    from coopsat.pipeline import prepare
+    from coopsat.scenarios.load import load_scenario
+
+    scenario = load_scenario(args.scenario, args.set)
+    built = prepare(scenario)
+    for note in built.warnings:
+        print(f"warning: {note}", file=sys.stderr)
+    print(
+        f"ok: {scenario.name}: {len(built.names)} spacecraft, controller {scenario.controller.kind}, "
+        f"actuators {scenario.actuators.kind}, {built.n_records + 1} samples over {scenario.sim.t_final_s:g} s"
+    )
+    return 0
+
+
+def _cmd_run(args):
+    from coopsat.pipeline import run_scenario
+
+    result = run_scenario(
+        args.scenario,
+        out_dir=args.out,
+        overrides=args.set,
+        progress=not args.quiet,
+        figures=not args.no_figures,
+        on_warning=lambda note: print(f"warning: {note}", file=sys.stderr),
+    )
+    print(f"wrote {result.out_dir}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
+    if not args.quiet:
+        for key, value in result.metrics.items():
+            print(f"  {key} = {'null' if value is None else f'{value:.6g}'}")
+        for row in result.comparison:
+            ours = "never" if row["ours"] is None else f"{row['ours']:.4g}"
+            print(f"  {row['quantity']}: published {row['published']:g}, ours {ours}: {row['verdict']}")
+    return 0
+
+
+def _cmd_bench(args):
+    from coopsat.bench import run_benchmarks
+
+    run_benchmarks(sizes=args.sizes, steps=args.steps)
+    return 0
+
+
+def build_parser():
+    """The argument parser (exposed for tests and documentation)."""
+    p = argparse.ArgumentParser(prog="coopsat", description="Cooperative control of spacecraft formations.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    sub.add_parser("list", help="list the bundled scenarios").set_defaults(func=_cmd_list)
+
+    show = sub.add_parser("show", help="print a bundled scenario's TOML")
+    show.add_argument("name")
+    show.add_argument("--resolved", action="store_true", help="with every default filled in and 'extends' resolved")
+    show.set_defaults(func=_cmd_show)
+
+    set_help = "override a field before validation, e.g. --set controller.period_s=0.01 (repeatable)"
+    val = sub.add_parser("validate", help="validate a scenario (file or bundled name) and run its design checks")
+    val.add_argument("scenario")
+    val.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    val.set_defaults(func=_cmd_validate)
+
+    run = sub.add_parser("run", help="run a scenario and write its run folder")
+    run.add_argument("scenario", help="bundled scenario name or path to a .toml file")
+    run.add_argument("--out", help="run folder (default runs/<scenario name>)")
+    run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    run.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    run.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no metrics on stdout")
+    run.set_defaults(func=_cmd_run)
+
+    bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
+    bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")
+    bench.add_argument("--steps", type=int, default=None, help="ticks per timed run (default: scaled to N)")
+    bench.set_defaults(func=_cmd_bench)
+    return p
+
+
+def main(argv=None):
+    """Entry point of the ``coopsat`` command; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except _input_errors() as err:
+        print(f"coopsat: error: {err}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,180 @@
+"""One scenario, end to end: load → build → simulate → dataset → metrics → comparison → files.
+
+The run folder is written to a temporary sibling folder and renamed into place at the end,
+so a failed run (bad input, non-finite state) leaves nothing half-written.
+"""
+
+import json
+import shutil
+import tempfile
+import warnings
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+import coopsat
+from coopsat.analysis.compare import compare_published, comparison_markdown
+from coopsat.analysis.metrics import run_metrics
+from coopsat.scenarios.build import ConsensusWarning, build, stability_message
+from coopsat.scenarios.load import ScenarioError, load_scenario, resolved_toml
+from coopsat.scenarios.schema import ConsensusTrack
+
+
+@dataclass
+class RunResult:
+    """What :func:`run_scenario` produced.
+
+    Attributes
+    ----------
+    out_dir : Path or None
+        The run folder (None when nothing was written).
+    dataset : xarray.Dataset
+    metrics : dict
+    comparison : list of dict
+    warnings : list of str
+    compile_s, run_s : float
+        Wall time compiling and running the closed loop, s.
+    """
+
+    out_dir: Path | None
+    dataset: object
+    metrics: dict
+    comparison: list
+    warnings: list
+    compile_s: float
+    run_s: float
+
+
+def _design_metrics(built):
+    st = built.stability
+    m = {"control_period_s": built.scenario.control_period_s}
+    if st is not None:
+        m.update(
+            spectral_radius=st.spectral_radius,
+            max_stable_period_s=st.max_stable_period_s,
+            continuous_max_real_1_s=st.continuous_max_real,
+        )
+    return m
+
+
+def prepare(scenario):
+    """Build a validated scenario; its design-time warnings are in ``built.warnings``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConsensusWarning)  # returned in built.warnings instead
+        return build(scenario)
+
+
+def simulate_built(built, progress=False):
+    """Run a built scenario; returns (dataset, RunOutput)."""
+    from coopsat.sim.engine import simulate
+    from coopsat.sim.recorder import to_dataset
+
+    scenario = built.scenario
+    out = simulate(built.system, built.n_records, built.record_interval_s, progress=progress)
+    attrs = {
+        "scenario_name": scenario.name,
+        "scenario_toml": resolved_toml(scenario),
+        "seed": scenario.seed,
+        "coopsat_version": coopsat.__version__,
+        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "compile_time_s": out.compile_s,
+        "run_time_s": out.run_s,
+        "conventions": "SI units; quaternions scalar-first, Hamilton, body to inertial",
+    }
+    if built.stability is not None:
+        attrs["sampled_data_check"] = stability_message(built.stability, built.names)
+    return to_dataset(out, built.names, attrs), out
+
+
+def analyse(built, ds):
+    """Metrics and comparison rows of a finished run."""
+    sc = built.scenario
+    ctrl = sc.controller
+    omega_ref = ctrl.omega_ref_rad_s if isinstance(ctrl, ConsensusTrack) else None
+    inertia = np.asarray(built.system.plant.inertia_kgm2)
+    metrics = {**_design_metrics(built), **run_metrics(ds, built.names, sc.analysis, inertia, omega_ref)}
+    note = None
+    if built.stability is not None and not built.stability.stable:
+        note = stability_message(built.stability, built.names)
+    try:
+        rows = compare_published(sc.published, metrics, note, sc.sim.t_final_s)
+    except KeyError as err:
+        raise ScenarioError(err.args[0]) from None
+    return metrics, rows
+
+
+def _json_default(v):
+    if isinstance(v, np.generic):
+        return v.item()
+    raise TypeError(f"cannot write {type(v).__name__} to JSON")
+
+
+def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
+    """Write result.nc, metrics.json, comparison.{md,json} and figures, atomically.
+
+    Parameters
+    ----------
+    out_dir : Path
+        Final folder; an existing one is replaced only once the new one is complete.
+    """
+    out_dir = Path(out_dir)
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+    try:
+        ds.to_netcdf(tmp / "result.nc", engine="h5netcdf")
+        (tmp / "metrics.json").write_text(json.dumps(metrics, indent=2, default=_json_default) + "\n")
+        if built.scenario.published:
+            (tmp / "comparison.json").write_text(json.dumps(rows, indent=2, default=_json_default) + "\n")
+            (tmp / "comparison.md").write_text(comparison_markdown(rows, built.scenario.name))
+        if figures:
+            from coopsat.plots.figures import save_figures, standard_figures
+
+            a = built.scenario.analysis
+            save_figures(standard_figures(ds, a.sync_attitude_deg, a.sync_rate_rad_s), tmp)
+        if out_dir.exists():
+            trash = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
+            out_dir.rename(trash / out_dir.name)
+            tmp.rename(out_dir)
+            shutil.rmtree(trash, ignore_errors=True)
+        else:
+            tmp.rename(out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out_dir
+
+
+def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, on_warning=None):
+    """Run a bundled scenario or scenario file and write its run folder.
+
+    Parameters
+    ----------
+    ref : str or Path
+        Bundled scenario name or TOML path.
+    out_dir : str or Path, optional
+        Run folder; default ``runs/<scenario name>``.
+    overrides : iterable of str
+        ``key.path=value`` assignments.
+    progress : bool
+        Progress bar for long runs.
+    figures : bool
+        Write the PNG figures.
+    on_warning : callable, optional
+        Called with each design-time warning (one line) before the simulation starts.
+
+    Returns
+    -------
+    RunResult
+    """
+    scenario = load_scenario(ref, overrides)
+    built = prepare(scenario)
+    for note in built.warnings:
+        if on_warning is not None:
+            on_warning(note)
+    ds, out = simulate_built(built, progress=progress)
+    metrics, rows = analyse(built, ds)
+    target = Path(out_dir) if out_dir is not None else Path("runs") / scenario.name
+    write_run_folder(target, built, ds, metrics, rows, figures=figures)
+    return RunResult(target, ds, metrics, rows, built.warnings, out.compile_s, out.run_s)

@@ -1,0 +1,224 @@
+"""Standard figures of a closed-loop run: attitude, rates, torque, synchronisation error.
+
+Pure functions from the run's :class:`xarray.Dataset` (see
+:func:`coopsat.sim.recorder.to_dataset`) to :class:`matplotlib.figure.Figure`. Figures are
+built with the object-oriented API only (no pyplot), so no backend or global state is touched
+and nothing needs closing; :meth:`~matplotlib.figure.Figure.savefig` renders with Agg.
+"""
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from coopsat.analysis.metrics import (
+    pairwise_attitude_error_deg,
+    pairwise_rate_difference_rad_s,
+    quat_angle_between_deg,
+)
+
+LOG_FLOOR = 1e-12
+"""Errors are clipped to this floor so exact zeros (e.g. identical initial states) stay on a
+log axis."""
+
+
+def _values(ds, name, *dims):
+    # Explicit transpose: the plotting code indexes by position.
+    return ds[name].transpose(*dims).values
+
+
+def _names(ds):
+    return [str(s) for s in ds["spacecraft"].values]
+
+
+def _title(ds, what):
+    scenario = ds.attrs.get("scenario_name", "")
+    return f"{scenario}: {what}" if scenario else what
+
+
+def _stacked(ds, n_axes, what):
+    fig = Figure(figsize=(8.0, 1.8 * n_axes + 0.6), layout="constrained")
+    axes = fig.subplots(n_axes, 1, sharex=True, squeeze=False)[:, 0]
+    axes[-1].set_xlabel(f"time [{ds['time'].attrs.get('units', 's')}]")
+    fig.suptitle(_title(ds, what))
+    return fig, axes
+
+
+def attitude_figure(ds):
+    """Attitude quaternion components of every spacecraft against time.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Run record with ``q`` (time, spacecraft, q_component), dimensionless, scalar first;
+        ``q_ref`` (time, q_component) is drawn as a thick black "reference" line if present.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Four stacked axes, q0..q3, one line per spacecraft. Quaternions are plotted as
+        recorded (q and −q are the same attitude; no sign is chosen here).
+    """
+    q = _values(ds, "q", "time", "spacecraft", "q_component")
+    q_ref = _values(ds, "q_ref", "time", "q_component") if "q_ref" in ds else None
+    t = ds["time"].values
+    fig, axes = _stacked(ds, 4, "attitude quaternion")
+    for k, (ax, comp) in enumerate(zip(axes, ds["q_component"].values)):
+        if q_ref is not None:
+            ax.plot(t, q_ref[:, k], color="k", lw=2.5, label="reference")
+        for i, name in enumerate(_names(ds)):
+            ax.plot(t, q[:, i, k], label=name)
+        ax.set_ylabel(f"{comp} [{ds['q'].attrs['units']}]")
+    axes[0].legend(loc="upper right", fontsize="small")
+    return fig
+
+
+def rate_figure(ds):
+    """Body angular rates of every spacecraft against time.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Run record with ``omega`` (time, spacecraft, component), rad/s.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three stacked axes, ω_x, ω_y, ω_z, one line per spacecraft.
+    """
+    omega = _values(ds, "omega", "time", "spacecraft", "component")
+    t = ds["time"].values
+    fig, axes = _stacked(ds, 3, "body angular rate")
+    for k, (ax, comp) in enumerate(zip(axes, ds["component"].values)):
+        for i, name in enumerate(_names(ds)):
+            ax.plot(t, omega[:, i, k], label=name)
+        ax.set_ylabel(f"ω_{comp} [{ds['omega'].attrs['units']}]")
+    axes[0].legend(loc="upper right", fontsize="small")
+    return fig
+
+
+def torque_figure(ds, spacecraft=0):
+    """Applied and commanded torque of one spacecraft against time.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Run record with ``torque`` and ``torque_command`` (time, spacecraft, component), N·m.
+    spacecraft : int or str
+        Index along ``spacecraft`` or the spacecraft's name.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three stacked axes (x, y, z). The applied torque is a step plot (it is the mean over
+        the control period *starting* at each sample); the command is a thin dashed line.
+    """
+    names = _names(ds)
+    i = names.index(spacecraft) if isinstance(spacecraft, str) else int(spacecraft)
+    torque = _values(ds, "torque", "time", "spacecraft", "component")[:, i]
+    command = _values(ds, "torque_command", "time", "spacecraft", "component")[:, i]
+    t = ds["time"].values
+    fig, axes = _stacked(ds, 3, f"torque of {names[i]}")
+    for k, (ax, comp) in enumerate(zip(axes, ds["component"].values)):
+        ax.plot(t, torque[:, k], drawstyle="steps-post", label="applied")
+        ax.plot(t, command[:, k], "--", lw=0.8, color="k", label="commanded")
+        ax.set_ylabel(f"τ_{comp} [{ds['torque'].attrs['units']}]")
+    axes[0].legend(loc="upper right", fontsize="small")
+    return fig
+
+
+def sync_error_figure(ds, attitude_threshold_deg=None, rate_threshold_rad_s=None):
+    """Synchronisation (and, if tracking, reference) errors against time on log axes.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Run record with ``q`` and ``omega``; optional ``q_ref`` adds a third axis.
+    attitude_threshold_deg : float, optional
+        Drawn as a dotted horizontal line on the attitude axes, deg.
+    rate_threshold_rad_s : float, optional
+        Drawn as a dotted horizontal line on the rate axis, rad/s.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Axes: largest pairwise attitude error (deg); largest pairwise rate difference
+        (rad/s); with ``q_ref``, each spacecraft's attitude error to the reference (deg).
+        Values are clipped below at :data:`LOG_FLOOR`.
+    """
+    q = _values(ds, "q", "time", "spacecraft", "q_component")
+    omega = _values(ds, "omega", "time", "spacecraft", "component")
+    t = ds["time"].values
+    tracking = "q_ref" in ds
+    fig, axes = _stacked(ds, 3 if tracking else 2, "synchronisation error")
+    axes[0].plot(t, np.maximum(pairwise_attitude_error_deg(q), LOG_FLOOR))
+    axes[0].set_ylabel("max pairwise\nattitude error [deg]")
+    axes[1].plot(t, np.maximum(pairwise_rate_difference_rad_s(omega), LOG_FLOOR))
+    axes[1].set_ylabel("max pairwise\nrate difference [rad/s]")
+    attitude_axes = [axes[0]]
+    if tracking:
+        q_ref = _values(ds, "q_ref", "time", "q_component")
+        error = quat_angle_between_deg(q, q_ref[:, None, :])
+        for i, name in enumerate(_names(ds)):
+            axes[2].plot(t, np.maximum(error[:, i], LOG_FLOOR), label=name)
+        axes[2].set_ylabel("error to\nreference [deg]")
+        axes[2].legend(loc="upper right", fontsize="small")
+        attitude_axes.append(axes[2])
+    if attitude_threshold_deg is not None:
+        for ax in attitude_axes:
+            ax.axhline(attitude_threshold_deg, ls=":", color="k", label="threshold")
+    if rate_threshold_rad_s is not None:
+        axes[1].axhline(rate_threshold_rad_s, ls=":", color="k", label="threshold")
+    for ax in axes:
+        ax.set_yscale("log")
+    return fig
+
+
+def standard_figures(ds, attitude_threshold_deg=None, rate_threshold_rad_s=None):
+    """All standard figures of a run, keyed by file stem.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Run record (see :func:`attitude_figure` … :func:`sync_error_figure`).
+    attitude_threshold_deg : float, optional
+        Passed to :func:`sync_error_figure`, deg.
+    rate_threshold_rad_s : float, optional
+        Passed to :func:`sync_error_figure`, rad/s.
+
+    Returns
+    -------
+    dict of str to matplotlib.figure.Figure
+        ``attitude``, ``rates``, ``torque_<first spacecraft name>``, ``sync_error``.
+    """
+    return {
+        "attitude": attitude_figure(ds),
+        "rates": rate_figure(ds),
+        f"torque_{_names(ds)[0]}": torque_figure(ds, 0),
+        "sync_error": sync_error_figure(ds, attitude_threshold_deg, rate_threshold_rad_s),
+    }
+
+
+def save_figures(figures, directory, dpi=120):
+    """Write each figure as ``<stem>.png`` into a directory.
+
+    Parameters
+    ----------
+    figures : dict of str to matplotlib.figure.Figure
+        File stem -> figure, e.g. from :func:`standard_figures`.
+    directory : str or pathlib.Path
+        Output directory, created if missing.
+    dpi : int
+        Resolution, dots per inch.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written files, in the order of ``figures``.
+    """
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = [directory / f"{stem}.png" for stem in figures]
+    for path, fig in zip(paths, figures.values()):
+        fig.savefig(path, dpi=dpi)
+    return paths

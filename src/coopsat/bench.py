@@ -20,8 +20,7 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0):
     rng = np.random.default_rng(seed)
     q = rng.normal(size=(n, 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
-    principal = rng.uniform(0.5, 1.5, size=(n, 3))
-    inertia = np.einsum("ni,ij->nij", principal, np.eye(3))
+    principal = rng.uniform(0.5, 1.5, size=(n, 3))  # body axes = principal axes (diagonal path)
     zeros = np.zeros((n, 3))
     links = links_from_adjacency(ring_adjacency(n) if controller != "none" and n > 1 else np.zeros((n, n)))
     structure = Structure(
@@ -35,7 +34,7 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0):
             (
                 dt_s,
                 PlantState(q, rng.normal(scale=0.1, size=(n, 3)), zeros, zeros, zeros),
-                PlantParams(inertia, np.linalg.inv(inertia), 0.0, 0.0, 1.0),
+                PlantParams(principal, 1.0 / principal, 0.0, 0.0, 1.0),
                 links.src, links.dst, links.weight, params, {"torque_max_nm": 0.05},
             )
         ),

@@ -17,9 +17,9 @@ import numpy as np
 import coopsat
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import run_metrics
-from coopsat.scenarios.build import ConsensusWarning, build, stability_message
+from coopsat.scenarios.build import ConsensusWarning, build, inertia_matrix, stability_message
 from coopsat.scenarios.load import ScenarioError, load_scenario, resolved_toml
-from coopsat.scenarios.schema import ConsensusTrack
+from coopsat.scenarios.schema import ConsensusTrack, PwmThrusters
 
 
 @dataclass
@@ -48,8 +48,18 @@ class RunResult:
 
 
 def _design_metrics(built):
+    """Numbers known before the run: sampled-data check, PWM dead band, spin-down bounds."""
+    sc = built.scenario
     st = built.stability
-    m = {"control_period_s": built.scenario.control_period_s}
+    m = {"control_period_s": sc.control_period_s}
+    act = sc.actuators
+    if isinstance(act, PwmThrusters):
+        m["pwm_deadband_torque_nm"] = act.torque_max_nm * act.min_pulse_s / sc.control_period_s
+    if np.isfinite(act.torque_max_nm) and isinstance(sc.controller, ConsensusTrack):
+        w_ref = np.asarray(sc.controller.omega_ref_rad_s)
+        for s in sc.spacecraft:
+            h_excess = np.abs(np.diag(inertia_matrix(s.inertia_kgm2)) * (np.asarray(s.omega_b_rad_s) - w_ref))
+            m[f"{s.name}_min_spin_down_time_s"] = float(h_excess.max() / act.torque_max_nm)
     if st is not None:
         m.update(
             spectral_radius=st.spectral_radius,
@@ -93,7 +103,7 @@ def analyse(built, ds):
     sc = built.scenario
     ctrl = sc.controller
     omega_ref = ctrl.omega_ref_rad_s if isinstance(ctrl, ConsensusTrack) else None
-    inertia = np.asarray(built.system.plant.inertia_kgm2)
+    inertia = np.stack([inertia_matrix(s.inertia_kgm2) for s in sc.spacecraft])
     metrics = {**_design_metrics(built), **run_metrics(ds, built.names, sc.analysis, inertia, omega_ref)}
     note = None
     if built.stability is not None and not built.stability.stable:

@@ -20,7 +20,7 @@ class Pulse(NamedTuple):
     Attributes
     ----------
     level_nm : (n, 3)
-        Torque while on, body axes, N·m.
+        Torque while on, body axes, N·m ((3, n) inside the compiled loop).
     t_off_s : (n, 3)
         Time after the period start at which each axis switches off, s, in [0, period].
     """
@@ -40,8 +40,9 @@ def torque_between(pulse, t_start_s, t_end_s):
     Parameters
     ----------
     pulse : Pulse
-    t_start_s, t_end_s : array, broadcastable to (n,) or (n, 1)
-        Sub-interval bounds measured from the period start, s.
+    t_start_s, t_end_s : array, broadcastable against the pulse's arrays
+        Sub-interval bounds measured from the period start, s: shape (n,) for a
+        component-major pulse (3, n), (n, 1) for (n, 3).
 
     Returns
     -------

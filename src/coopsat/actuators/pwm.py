@@ -43,12 +43,14 @@ def pwm_pulse(command_nm, period_s, torque_max_nm, min_pulse_s):
     return Pulse(jnp.sign(command_nm) * torque_max_nm, t_on)
 
 
-def thruster_on_time_s(pulse):
+def thruster_on_time_s(pulse, axis=-1):
     """On-time of each of the six thrusters in this period, s; (n, 3) pulse -> (n, 6).
 
     Ordered as :data:`THRUSTER_NAMES`: for each axis the + thruster, then the − thruster.
+    With ``axis=0`` (component-major) the shapes are (3, n) -> (6, n).
     """
-    on = jnp.where(pulse.level_nm != 0.0, pulse.t_off_s, 0.0)
-    plus = jnp.where(pulse.level_nm > 0.0, on, 0.0)
-    minus = jnp.where(pulse.level_nm < 0.0, on, 0.0)
-    return jnp.stack([plus, minus], axis=-1).reshape(*on.shape[:-1], 6)
+    plus = jnp.where(pulse.level_nm > 0.0, pulse.t_off_s, 0.0)
+    minus = jnp.where(pulse.level_nm < 0.0, pulse.t_off_s, 0.0)
+    if axis == 0:
+        return jnp.stack([plus, minus], axis=1).reshape(6, *plus.shape[1:])
+    return jnp.stack([plus, minus], axis=-1).reshape(*plus.shape[:-1], 6)

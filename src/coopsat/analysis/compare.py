@@ -29,20 +29,56 @@ def _tolerance_text(entry):
     return f"agreement band ±{tol:g} {entry.unit}"
 
 
-def _momentum_explanation(metrics):
-    """Why a consensus-only formation cannot end at rest: it keeps its angular momentum."""
+def _rest_explanation(quantity, metrics):
+    """Why law (3) need not end at rest: it damps only rate differences."""
     h0, hf = metrics.get("angular_momentum_initial_nms"), metrics.get("angular_momentum_final_nms")
-    if h0 is None or hf is None or h0 == 0.0:
+    if h0 is None or hf is None:
         return None
     return (
-        f"the formation's inertial angular momentum is {h0:.3g} N·m·s at the start and {hf:.3g} N·m·s at the end: "
-        "law (3) applies only relative torques, which nearly cancel once attitudes agree, so the formation ends "
-        "spinning together about the momentum it started with, not at rest"
+        "law (3) damps only rate differences: once attitudes and rates agree its torque is zero whatever the "
+        "common rate, so a common spin about a shared principal axis is an equilibrium and nothing brings the "
+        f"formation to rest (inertial angular momentum {h0:.3g} N·m·s at the start, {hf:.3g} N·m·s at the end)"
     )
 
 
-EXPLAINERS = {"final_rate_max_rad_s": _momentum_explanation, "final_rate_spread_rad_s": _momentum_explanation}
-"""Quantity-specific explanations of a difference: metrics dict -> sentence or None."""
+def _deadband_explanation(quantity, metrics):
+    """A PWM minimum pulse leaves small commands unexecuted: errors stall instead of vanishing."""
+    deadband = metrics.get("pwm_deadband_torque_nm")
+    if deadband is None or metrics.get(quantity) is not None:
+        return None
+    spread = metrics.get("final_attitude_spread_deg")
+    tail = f"; the attitude spread ends at {spread:.3g} deg" if spread is not None else ""
+    return (
+        f"PWM commands below T_max·τ/T = {deadband:.3g} N·m are not executed (minimum pulse), so the loop stops "
+        f"correcting small errors{tail}"
+    )
+
+
+def _spin_down_explanation(quantity, metrics):
+    """The thrusters' authority bounds how fast a spin can be removed."""
+    bound = metrics.get(quantity.replace("_rate_settle_time_s", "_min_spin_down_time_s"))
+    if bound is None:
+        return None
+    return f"at full thrust the spin cannot be removed in less than {bound:.3g} s (I·|Δω|/T_max per axis)"
+
+
+EXPLAINERS = {
+    "final_rate_max_rad_s": _rest_explanation,
+    "sync_time_s": _deadband_explanation,
+    "track_time_s": _deadband_explanation,
+    "_rate_settle_time_s": _spin_down_explanation,
+}
+"""Explanations of a difference, by metric name or name suffix: (quantity, metrics) -> str or None."""
+
+
+def _explain(quantity, metrics):
+    sentences = []
+    for key, explainer in EXPLAINERS.items():
+        if quantity == key or (key.startswith("_") and quantity.endswith(key)):
+            sentence = explainer(quantity, metrics)
+            if sentence:
+                sentences.append(sentence)
+    return sentences
 
 
 def compare_published(published, metrics, stability_note=None, t_final_s=None):
@@ -81,10 +117,7 @@ def compare_published(published, metrics, stability_note=None, t_final_s=None):
         if stability_note:
             reasons.append(stability_note if not agrees else "agrees, although " + stability_note)
         if not agrees:
-            explainer = EXPLAINERS.get(entry.quantity)
-            sentence = explainer(metrics) if explainer else None
-            if sentence:
-                reasons.append(sentence)
+            reasons.extend(_explain(entry.quantity, metrics))
             if entry.note:
                 reasons.append(entry.note)
         rows.append(

@@ -18,12 +18,15 @@ def quat_angle_between_deg(q_a, q_b):
 
     Notes
     -----
-    ``2 atan2(|vec(q_b* ⊗ q_a)|, |scalar|)``: sign-invariant (q and −q are one attitude).
+    ``2 atan2(|vec(q_b* ⊗ q_a)|, |scalar|)``: sign-invariant (q and −q are one attitude). The
+    vector part is formed directly, ``a0 b⃗ − b0 a⃗ − a⃗ × b⃗`` up to sign, not as
+    ``sqrt(1 − (a·b)²)``, which loses everything below about 1e-6 deg to rounding.
     """
-    dot = np.abs(np.sum(q_a * q_b, axis=-1))
-    # |vec(q_b* ⊗ q_a)| = sqrt(1 − dot²) for unit quaternions; atan2 keeps precision near 0.
-    vec_norm = np.sqrt(np.clip(1.0 - dot * dot, 0.0, None))
-    return np.degrees(2.0 * np.arctan2(vec_norm, dot))
+    a0, av = q_a[..., :1], q_a[..., 1:]
+    b0, bv = q_b[..., :1], q_b[..., 1:]
+    scalar = np.abs(np.sum(q_a * q_b, axis=-1))
+    vec = b0 * av - a0 * bv - np.cross(bv, av)
+    return np.degrees(2.0 * np.arctan2(np.linalg.norm(vec, axis=-1), scalar))
 
 
 def _pairs(n):

@@ -10,18 +10,34 @@ from coopsat import _jax  # noqa: F401
 import jax
 import jax.numpy as jnp
 
-from coopsat.geometry.quaternion import quat_error, quat_exp_rate, quat_multiply, quat_positive
+from coopsat.geometry.quaternion import quat_error, quat_exp_rate, quat_multiply, quat_positive, quat_vector
 
 
-def _vec_error(q_i, q_j, short_way):
+def _vec_error(q_i, q_j, short_way, axis):
     """``H(q_j* ⊗ q_i)``, optionally taken on the ``q0 ≥ 0`` hemisphere; (..., 4) -> (..., 3)."""
-    q_e = quat_error(q_i, q_j)
+    q_e = quat_error(q_i, q_j, axis)
     if short_way:
-        q_e = quat_positive(q_e)
-    return q_e[..., 1:]
+        q_e = quat_positive(q_e, axis)
+    return quat_vector(q_e, axis)
 
 
-def consensus_sync_torque(q_own, omega_own, q_msg, omega_msg, dst, weight, alpha, beta, short_way=False):
+def _own_at_links(own, dst, axis):
+    """Each link's receiver's own value: (k, n) -> (k, E) or (k, 1, n) (padded table)."""
+    if dst.ndim == 2:  # padded table: the receiver of column i is i
+        return own[:, None, :] if axis == 0 else own[None]
+    return jnp.take(own, dst, axis=-1 if axis == 0 else 0)
+
+
+def _per_receiver_sum(per_link, dst, n, axis):
+    """Σ over the links into each spacecraft (edge list sorted by receiver, or padded table)."""
+    if dst.ndim == 2:
+        return per_link.sum(axis=-2 if axis == 0 else 0)
+    if axis == 0:  # (k, E) -> (k, n)
+        return jax.ops.segment_sum(per_link.T, dst, num_segments=n, indices_are_sorted=True).T
+    return jax.ops.segment_sum(per_link, dst, num_segments=n, indices_are_sorted=True)
+
+
+def consensus_sync_torque(q_own, omega_own, q_msg, omega_msg, dst, weight, alpha, beta, short_way=False, axis=-1):
     """Synchronisation law (3): ``u_i = −Σ_j a_ij [α H(q_j* ⊗ q_i) + β (ω_i − ω_j)]``.
 
     Parameters
@@ -31,11 +47,13 @@ def consensus_sync_torque(q_own, omega_own, q_msg, omega_msg, dst, weight, alpha
     omega_own : (n, 3)
         Each spacecraft's own body rate, rad/s.
     q_msg, omega_msg : (E, 4), (E, 3)
-        What the receiver of each edge heard from its transmitter.
-    dst : int (E,)
-        Receiver of each edge.
-    weight : (E,)
-        ``a_ij`` of each edge.
+        What the receiver of each link heard from its transmitter (links as
+        :class:`~coopsat.network.topology.Links`: an edge list (E,), or a padded table (d, n)
+        in the component-major layout, giving (4, d, n) and (3, d, n)).
+    dst : int (E,) or (d, n)
+        Receiver of each link.
+    weight : (E,) or (d, n)
+        ``a_ij`` of each link.
     alpha : scalar
         Attitude gain α, N·m (per unit of quaternion vector part).
     beta : scalar
@@ -43,6 +61,8 @@ def consensus_sync_torque(q_own, omega_own, q_msg, omega_msg, dst, weight, alpha
     short_way : bool
         Static. Take the error quaternion on the ``q0 ≥ 0`` hemisphere. The paper's law and its
         Lyapunov function (8) use the raw product (False).
+    axis : {-1, 0}
+        Component axis: (n, 4) arrays, or component-major (4, n) in the compiled loop.
 
     Returns
     -------
@@ -53,10 +73,10 @@ def consensus_sync_torque(q_own, omega_own, q_msg, omega_msg, dst, weight, alpha
     -----
     2010 consensus paper, eq. (3); reduces the tracking law (4) with K = D = 0.
     """
-    e_q = _vec_error(q_own[dst], q_msg, short_way)
-    per_edge = weight[:, None] * (alpha * e_q + beta * (omega_own[dst] - omega_msg))
-    n = q_own.shape[0]
-    return -jax.ops.segment_sum(per_edge, dst, num_segments=n, indices_are_sorted=True)
+    w = weight if axis == 0 else weight[..., None]
+    e_q = _vec_error(_own_at_links(q_own, dst, axis), q_msg, short_way, axis)
+    per_link = w * (alpha * e_q + beta * (_own_at_links(omega_own, dst, axis) - omega_msg))
+    return -_per_receiver_sum(per_link, dst, q_own.shape[-1 if axis == 0 else 0], axis)
 
 
 def reference_attitude(q_ref0, omega_ref_b, t_s):
@@ -82,13 +102,13 @@ def reference_attitude(q_ref0, omega_ref_b, t_s):
 
 
 def consensus_track_torque(
-    q_own, omega_own, q_msg, omega_msg, dst, weight, alpha, beta, k_p, k_d, q_ref, omega_ref_b, short_way=False
+    q_own, omega_own, q_msg, omega_msg, dst, weight, alpha, beta, k_p, k_d, q_ref, omega_ref_b, short_way=False, axis=-1
 ):
     """Tracking law (4): law (3) plus ``−K H(q_r* ⊗ q_i) − D (ω_i − ω_r)``.
 
     Parameters
     ----------
-    q_own, omega_own, q_msg, omega_msg, dst, weight, alpha, beta, short_way
+    q_own, omega_own, q_msg, omega_msg, dst, weight, alpha, beta, short_way, axis
         As :func:`consensus_sync_torque`.
     k_p : scalar
         K, N·m.
@@ -107,6 +127,8 @@ def consensus_track_torque(
     -----
     2010 consensus paper, eq. (4) (printed with a stray dot over u).
     """
-    u = consensus_sync_torque(q_own, omega_own, q_msg, omega_msg, dst, weight, alpha, beta, short_way)
-    e_r = _vec_error(q_own, q_ref, short_way)
+    u = consensus_sync_torque(q_own, omega_own, q_msg, omega_msg, dst, weight, alpha, beta, short_way, axis)
+    if axis == 0:  # reference vectors broadcast along the spacecraft axis
+        q_ref, omega_ref_b = q_ref[:, None], omega_ref_b[:, None]
+    e_r = _vec_error(q_own, q_ref, short_way, axis)
     return u - k_p * e_r - k_d * (omega_own - omega_ref_b)

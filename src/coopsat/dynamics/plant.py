@@ -1,7 +1,7 @@
 """The truth plant: stacked spacecraft states and their time derivative.
 
-One :class:`PlantState` holds every spacecraft of a run, each field with a leading
-spacecraft axis ``(n, ...)`` (and a batch axis in front under ``vmap``). Attitude is always
+One :class:`PlantState` holds every spacecraft of a run: each field ``(n, k)`` at the package's
+interfaces, ``(k, n)`` (component-major, ``axis=0``) inside the compiled loop. Attitude is always
 propagated; translation only when the scenario has an orbit (a static choice, made when the
 closed loop is traced, so a rigid-body run pays nothing for it).
 """
@@ -48,7 +48,9 @@ class PlantParams(NamedTuple):
 
     Attributes
     ----------
-    inertia_kgm2, inertia_inv : (n, 3, 3)
+    inertia_kgm2, inertia_inv : (n, 3, 3) or (n, 3)
+        Full inertia and its inverse, kg·m²; or principal moments and their reciprocals when
+        every spacecraft's inertia is diagonal (the cheaper path in the compiled loop).
     mu_m3_s2, j2, r_body_m : scalar
         Central body's gravitational parameter, J2 and equatorial radius.
     """
@@ -60,7 +62,7 @@ class PlantParams(NamedTuple):
     r_body_m: jnp.ndarray
 
 
-def plant_derivative(x, torque_b_nm, params, gravity):
+def plant_derivative(x, torque_b_nm, params, gravity, axis=-1):
     """Time derivative of :class:`PlantState`.
 
     Parameters
@@ -71,20 +73,22 @@ def plant_derivative(x, torque_b_nm, params, gravity):
     params : PlantParams
     gravity : {"none", "two-body", "j2"}
         Static: "none" freezes position and velocity.
+    axis : int
+        Component axis of every field.
 
     Returns
     -------
     PlantState
         Derivatives; ``h_wheels_b`` is constant until wheels are actuated.
     """
-    dq = quat_kinematics(x.q_bi, x.omega_b)
-    dw = omega_dot_b(x.omega_b, torque_b_nm, params.inertia_kgm2, params.inertia_inv, x.h_wheels_b)
+    dq = quat_kinematics(x.q_bi, x.omega_b, axis)
+    dw = omega_dot_b(x.omega_b, torque_b_nm, params.inertia_kgm2, params.inertia_inv, x.h_wheels_b, axis)
     zeros3 = jnp.zeros_like(x.omega_b)
     if gravity == "none":
         dr, dv = zeros3, zeros3
     else:
         dr = x.v_eci
-        dv = two_body_accel(x.r_eci, params.mu_m3_s2)
+        dv = two_body_accel(x.r_eci, params.mu_m3_s2, axis)
         if gravity == "j2":
-            dv = dv + j2_accel(x.r_eci, params.mu_m3_s2, params.j2, params.r_body_m)
+            dv = dv + j2_accel(x.r_eci, params.mu_m3_s2, params.j2, params.r_body_m, axis)
     return PlantState(dq, dw, zeros3, dr, dv)

@@ -10,18 +10,23 @@ schedules enter; with an ideal network the message is the transmitter's current 
 from coopsat import _jax  # noqa: F401
 
 import jax
+import jax.numpy as jnp
 
 
-def deliver_ideal(outbox, src):
+def deliver_ideal(outbox, src, spacecraft_axis=0):
     """Ideal network: every edge carries its transmitter's current message.
 
     Parameters
     ----------
-    outbox : dict of arrays, each (n, ...)
+    outbox : dict of arrays
+        Each with the spacecraft on ``spacecraft_axis`` (``(n, k)``, or ``(k, n)`` with
+        ``spacecraft_axis=-1`` inside the compiled loop).
     src : int array, shape (E,)
+    spacecraft_axis : int
 
     Returns
     -------
-    dict of arrays, each (E, ...)
+    dict of arrays
+        Edges in place of spacecraft: ``(E, k)`` or ``(k, E)``.
     """
-    return jax.tree_util.tree_map(lambda a: a[src], outbox)
+    return jax.tree_util.tree_map(lambda a: jnp.take(a, src, axis=spacecraft_axis), outbox)

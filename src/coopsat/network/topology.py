@@ -24,16 +24,25 @@ class GraphError(ValueError):
 
 @dataclass(frozen=True)
 class Links:
-    """A weighted directed graph as edge arrays, the form the compiled loop consumes.
+    """A weighted directed graph as index arrays, the form the compiled loop consumes.
+
+    Two layouts, chosen by :func:`links_from_adjacency`:
+
+    * *edge list*: ``src``, ``dst``, ``weight`` of shape (E,), sorted by receiver; sums over
+      the edges into a spacecraft are segment sums;
+    * *padded in-neighbour table*: shape (d, n), d the largest in-degree: column i lists whom
+      spacecraft i hears (``dst[:, i] = i``); unused slots have weight 0 and point at i
+      itself. Sums are over axis 0, with no scatter: faster when degrees are alike (rings,
+      complete graphs), wasteful for hubs (an undirected star's hub hears n − 1).
 
     Attributes
     ----------
-    src : ndarray of int, shape (E,)
-        Transmitting spacecraft index j of each edge.
-    dst : ndarray of int, shape (E,)
-        Receiving spacecraft index i of each edge; edges are sorted by ``dst``.
-    weight : ndarray of float, shape (E,)
-        ``a_ij`` of each edge, > 0.
+    src : ndarray of int, shape (E,) or (d, n)
+        Transmitting spacecraft index j of each link.
+    dst : ndarray of int, shape (E,) or (d, n)
+        Receiving spacecraft index i of each link.
+    weight : ndarray of float, shape (E,) or (d, n)
+        ``a_ij`` of each link (0 for padding).
     n : int
         Number of spacecraft (nodes), including any that hear nobody.
     """
@@ -153,11 +162,35 @@ def laplacian(a):
     return np.diag(a.sum(axis=1)) - a
 
 
-def links_from_adjacency(a):
-    """Edge arrays of ``A`` sorted by receiver (for segment sums in the compiled loop)."""
+def links_from_adjacency(a, layout="auto"):
+    """Index arrays of ``A`` for the compiled loop.
+
+    Parameters
+    ----------
+    a : array_like, shape (n, n)
+    layout : {"auto", "edges", "padded"}
+        "auto" takes the padded table when it holds at most twice the slots of the edge list
+        (degrees alike), else the edge list.
+
+    Returns
+    -------
+    Links
+    """
     a = np.asarray(a, dtype=float)
+    n = a.shape[0]
     dst, src = np.nonzero(a)  # row-major: sorted by dst (= i), then src
-    return Links(src=src.astype(np.int32), dst=dst.astype(np.int32), weight=a[dst, src], n=a.shape[0])
+    in_degree = np.bincount(dst, minlength=n)
+    d = max(1, int(in_degree.max(initial=0)))
+    if layout == "auto":
+        layout = "padded" if n * d <= 2 * max(len(dst), n) else "edges"
+    if layout == "edges":
+        return Links(src=src.astype(np.int32), dst=dst.astype(np.int32), weight=a[dst, src], n=n)
+    slot = np.arange(len(dst)) - np.searchsorted(dst, dst)  # position of each edge among its receiver's
+    table_src = np.tile(np.arange(n, dtype=np.int32), (d, 1))
+    table_w = np.zeros((d, n))
+    table_src[slot, dst] = src
+    table_w[slot, dst] = a[dst, src]
+    return Links(src=table_src, dst=np.tile(np.arange(n, dtype=np.int32), (d, 1)), weight=table_w, n=n)
 
 
 def information_digraph(a):

@@ -205,9 +205,14 @@ def build(scenario):
         r_eci=np.array([r for r, _ in rv], dtype=float),
         v_eci=np.array([v for _, v in rv], dtype=float),
     )
+    if all(np.count_nonzero(m - np.diag(np.diag(m))) == 0 for m in inertia):
+        # Principal axes = body axes for every spacecraft: the loop takes the cheaper diagonal path.
+        inertia_in, inertia_inv = np.diagonal(inertia, axis1=1, axis2=2), 1.0 / np.diagonal(inertia, axis1=1, axis2=2)
+    else:
+        inertia_in, inertia_inv = inertia, np.linalg.inv(inertia)
     plant = PlantParams(
-        inertia_kgm2=inertia,
-        inertia_inv=np.linalg.inv(inertia),
+        inertia_kgm2=inertia_in,
+        inertia_inv=inertia_inv,
         mu_m3_s2=0.0 if orbit is None else orbit.mu_m3_s2,
         j2=0.0 if orbit is None else orbit.j2,
         r_body_m=1.0 if orbit is None else orbit.r_body_m,

@@ -102,7 +102,8 @@ def apply_override(raw, assignment):
     """Apply one ``key.path=value`` override in place.
 
     ``spacecraft.2.omega_b_rad_s=[0, 0, 0]`` addresses the third spacecraft (indices from 0);
-    tables that do not exist yet are created.
+    tables that do not exist yet are created. Setting a table's ``kind`` to another value
+    clears the table's other fields first (set them after it).
     """
     if "=" not in assignment:
         raise ScenarioError(f"--set {assignment}: expected key.path=value")
@@ -122,6 +123,8 @@ def apply_override(raw, assignment):
         if not isinstance(node, (dict, list)):
             raise ScenarioError(f"--set {key}: {where} is a value, not a table")
     last = parts[-1]
+    if last == "kind" and isinstance(node, dict) and node.get("kind") not in (None, _parse_value(value.strip())):
+        node.clear()  # another kind is another implementation: start its table afresh (as extends does)
     if isinstance(node, list):
         if not last.isdigit() or int(last) >= len(node):
             raise ScenarioError(f"--set {key}: {last} is not an index of a list of {len(node)}")

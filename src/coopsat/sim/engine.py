@@ -7,13 +7,17 @@ Per control period (``ticks_per_period`` base ticks):
 
 Pulsed actuation (PWM) switches inside a tick; each tick is then integrated piecewise between
 the sorted switch instants of each spacecraft (at most three per tick, one per axis), so the
-on-time is honoured exactly. A record is taken every ``periods_per_record`` periods: the state
+on-time is honoured exactly. Inside the loop every per-spacecraft array is component-major,
+``(k, n)``: each component is a contiguous row, so XLA vectorises the arithmetic over spacecraft
+(twice the throughput of ``(n, k)`` on the CPU); the layout changes only at the boundaries
+(:func:`_engine_view`, :func:`simulate`). A record is taken every ``periods_per_record`` periods: the state
 at the record instant and the command, applied mean torque and auxiliary outputs of the period
 that starts there. The run is one jitted ``lax.scan`` over records, cut into equal chunks only
 to move a progress bar; ``jax.vmap`` over a batched :class:`~coopsat.sim.system.System` runs
 many at once. There is no Python loop over ticks, spacecraft or edges.
 """
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -38,6 +42,21 @@ class NonFiniteStateError(RuntimeError):
     """The state became NaN or infinite during a run."""
 
 
+AXIS = 0
+"""Component axis inside the compiled loop (component-major arrays, spacecraft last)."""
+
+
+def _cm(a):
+    """(n, ...) -> (..., n): spacecraft axis last."""
+    return jnp.moveaxis(a, 0, -1)
+
+
+def _engine_view(system):
+    """The system with per-spacecraft plant arrays moved to the loop's component-major layout."""
+    p = system.plant
+    return dataclasses.replace(system, plant=p._replace(inertia_kgm2=_cm(p.inertia_kgm2), inertia_inv=_cm(p.inertia_inv)))
+
+
 # --- controllers: (t, outbox, inbox, system) -> (command (n, 3), aux dict) -------------------
 
 
@@ -49,7 +68,7 @@ def _sync_control(t, own, inbox, system):
     p = system.controller
     u = consensus_sync_torque(
         own["q"], own["omega"], inbox["q"], inbox["omega"], system.links_dst, system.links_weight,
-        p["alpha"], p["beta"], system.structure.short_way,
+        p["alpha"], p["beta"], system.structure.short_way, AXIS,
     )
     return u, {}
 
@@ -59,7 +78,7 @@ def _track_control(t, own, inbox, system):
     q_ref = reference_attitude(p["q_ref0"], p["omega_ref_b"], t)
     u = consensus_track_torque(
         own["q"], own["omega"], inbox["q"], inbox["omega"], system.links_dst, system.links_weight,
-        p["alpha"], p["beta"], p["k_p"], p["k_d"], q_ref, p["omega_ref_b"], system.structure.short_way,
+        p["alpha"], p["beta"], p["k_p"], p["k_d"], q_ref, p["omega_ref_b"], system.structure.short_way, AXIS,
     )
     return u, {"q_ref": q_ref}
 
@@ -103,11 +122,11 @@ def _moving_fields(gravity):
 
 
 def _rk4(x, torque, h, system):
-    """One RK4 step of length ``h`` (scalar or (n, 1)) with a constant torque."""
+    """One RK4 step of length ``h`` (scalar, or (n,): one per spacecraft) with a constant torque."""
     fields = _moving_fields(system.structure.gravity)
 
     def f(xx):
-        d = plant_derivative(xx, torque, system.plant, system.structure.gravity)
+        d = plant_derivative(xx, torque, system.plant, system.structure.gravity, AXIS)
         return {k: getattr(d, k) for k in fields}
 
     def shifted(k, c):
@@ -133,22 +152,22 @@ def _integrate_tick(x, pulse, t_in_period, system):
         # Switch instants of the three axes inside this tick, sorted per spacecraft: the torque
         # is constant between consecutive instants, so each segment is integrated exactly as a
         # smooth ODE. Zero-length segments are RK4 steps of length 0, i.e. no-ops.
-        cuts = jnp.sort(jnp.clip(pulse.t_off_s - t_in_period, 0.0, dt), axis=-1)
-        zero = jnp.zeros_like(cuts[:, :1])
-        bounds = jnp.concatenate([zero, cuts, zero + dt], axis=-1)  # (n, 5)
+        cuts = jnp.sort(jnp.clip(pulse.t_off_s - t_in_period, 0.0, dt), axis=0)  # (3, n)
+        zero = jnp.zeros_like(cuts[:1])
+        bounds = jnp.concatenate([zero, cuts, zero + dt], axis=0)  # (5, n)
         for m in range(4):
-            a, b = bounds[:, m : m + 1], bounds[:, m + 1 : m + 2]
+            a, b = bounds[m], bounds[m + 1]
             torque = torque_between(pulse, t_in_period + a, t_in_period + b)
             for _ in range(sub):
                 x = _rk4(x, torque, (b - a) / sub, system)
-    return x._replace(q_bi=quat_normalize(x.q_bi))
+    return x._replace(q_bi=quat_normalize(x.q_bi, AXIS))
 
 
 def _command(system, x, tick):
     """Sense, deliver and control at the start of a period: returns (pulse, command, aux)."""
     t = tick * system.dt_s
     outbox = {"q": x.q_bi, "omega": x.omega_b}
-    inbox = deliver_ideal(outbox, system.links_src)
+    inbox = deliver_ideal(outbox, system.links_src, spacecraft_axis=-1)
     u, aux = CONTROLLERS[system.structure.controller](t, outbox, inbox, system)
     pulse = ACTUATORS[system.structure.actuator].plan(u, system)
     return pulse, u, aux
@@ -158,7 +177,7 @@ def _account(system, pulse):
     """Per-period increments of the counters: |angular impulse| per axis and thruster on-times."""
     inc = {"abs_impulse_nms": jnp.abs(pulse.level_nm) * pulse.t_off_s}
     if ACTUATORS[system.structure.actuator].counts_thrusters:
-        inc["thruster_on_time_s"] = thruster_on_time_s(pulse)
+        inc["thruster_on_time_s"] = thruster_on_time_s(pulse, AXIS)
     return inc
 
 
@@ -203,6 +222,7 @@ def _block(system, carry):
 @partial(jax.jit, static_argnames=("chunk",))
 def _run_chunk(system, carry, first_record, n_records, chunk):
     """``chunk`` record intervals; those at or past ``n_records`` pass the carry through."""
+    system = _engine_view(system)
 
     def body(c, k):
         template = jax.eval_shape(lambda cc: _block(system, cc)[1], c)
@@ -218,16 +238,17 @@ def _run_chunk(system, carry, first_record, n_records, chunk):
 
 @jax.jit
 def _final_sample(system, carry):
+    system = _engine_view(system)
     x, acc, tick = carry
     pulse, u, aux = _command(system, x, tick)
     return _sample(system, x, acc, pulse, u, aux)
 
 
 def _initial_carry(system):
-    x0 = system.x0
-    zeros = jax.eval_shape(lambda s: _account(s, ACTUATORS[s.structure.actuator].plan(jnp.zeros_like(s.x0.omega_b), s)), system)
+    x0 = jax.tree_util.tree_map(_cm, system.x0)
+    x0 = x0._replace(q_bi=quat_normalize(x0.q_bi, AXIS))
+    zeros = jax.eval_shape(lambda s: _account(s, ACTUATORS[s.structure.actuator].plan(x0.omega_b, s)), system)
     acc = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), zeros)
-    x0 = x0._replace(q_bi=quat_normalize(x0.q_bi))
     return (x0, acc, jnp.zeros((), jnp.int64))
 
 
@@ -253,6 +274,10 @@ class RunOutput:
     run_s: float
 
 
+_REFERENCE_OUTPUTS = {"q_ref"}
+"""Outputs that are not per spacecraft (no spacecraft axis to move)."""
+
+
 def _check_finite(samples, t_s, offset, batched):
     """Raise :class:`NonFiniteStateError` naming the first sample, spacecraft and field."""
     for name in ("q_bi", "omega_b", "r_eci", "v_eci"):
@@ -261,9 +286,9 @@ def _check_finite(samples, t_s, offset, batched):
         a = np.asarray(samples[name])
         bad = ~np.isfinite(a)
         if bad.any():
-            idx = np.argwhere(bad)[0]
+            idx = np.argwhere(bad)[0]  # ([run,] record, component, spacecraft)
             k = idx[1] if batched else idx[0]
-            sc = idx[2] if batched else idx[1]
+            sc = idx[-1]
             run = f"run {idx[0]}, " if batched else ""
             raise NonFiniteStateError(
                 f"state became non-finite: {run}{name} of spacecraft index {sc} at t = {t_s[offset + k]:g} s "
@@ -339,13 +364,14 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
             if bar is not None:
                 bar.update(min(chunk, n_records - c * chunk))
         last = jax.tree_util.tree_map(np.asarray, final(system, carry))
+        _check_finite({k: np.expand_dims(v, 1 if batched else 0) for k, v in last.items()}, t_s, n_records, batched)
     finally:
         if bar is not None:
             bar.close()
     run_s = time.perf_counter() - t0
     axis = 1 if batched else 0
     # The last chunk may run past n_records (its extra rows are padding): keep n_records rows,
-    # then append the final sample.
+    # then append the final sample; per-spacecraft arrays go back to (spacecraft, component).
     samples = {
         k: np.concatenate(
             [np.take(np.concatenate([ch[k] for ch in chunks], axis=axis), np.arange(n_records), axis=axis),
@@ -354,5 +380,5 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         )
         for k in last
     }
-    _check_finite({k: np.take(v, [-1], axis=axis) for k, v in samples.items()}, t_s, n_records, batched)
+    samples = {k: v if k in _REFERENCE_OUTPUTS else np.swapaxes(v, -1, -2) for k, v in samples.items()}
     return RunOutput(t_s=t_s, samples=samples, compile_s=compile_s, run_s=run_s)

@@ -82,7 +82,7 @@ def simulate_built(built, progress=False):
     from coopsat.sim.recorder import to_dataset
 
     scenario = built.scenario
-    out = simulate(built.system, built.n_records, built.record_interval_s, progress=progress)
+    out = simulate(built.system, built.n_records, built.record_interval_s, progress=progress, names=built.names)
     attrs = {
         "scenario_name": scenario.name,
         "scenario_toml": resolved_toml(scenario),

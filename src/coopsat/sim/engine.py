@@ -278,7 +278,7 @@ _REFERENCE_OUTPUTS = {"q_ref"}
 """Outputs that are not per spacecraft (no spacecraft axis to move)."""
 
 
-def _check_finite(samples, t_s, offset, batched):
+def _check_finite(samples, t_s, offset, batched, names=None):
     """Raise :class:`NonFiniteStateError` naming the first sample, spacecraft and field."""
     for name in ("q_bi", "omega_b", "r_eci", "v_eci"):
         if name not in samples:
@@ -290,13 +290,15 @@ def _check_finite(samples, t_s, offset, batched):
             k = idx[1] if batched else idx[0]
             sc = idx[-1]
             run = f"run {idx[0]}, " if batched else ""
+            label = {"q_bi": "attitude q", "omega_b": "rate omega"}.get(name, name)
+            who = names[sc] if names is not None else f"spacecraft index {sc}"
             raise NonFiniteStateError(
-                f"state became non-finite: {run}{name} of spacecraft index {sc} at t = {t_s[offset + k]:g} s "
+                f"state became non-finite: {run}{label} of {who} at t = {t_s[offset + k]:g} s "
                 "(check gains, control period and step size)"
             )
 
 
-def simulate(system, n_records, record_interval_s, *, batched=False, progress=False, chunk=None):
+def simulate(system, n_records, record_interval_s, *, batched=False, progress=False, chunk=None, names=None):
     """Run the closed loop for ``n_records`` record intervals.
 
     Parameters
@@ -313,6 +315,8 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         ``vmap`` over the leading axis of every data leaf of ``system``.
     progress : bool
         Show a progress bar (it appears only once a run has taken 2 s).
+    names : sequence of str, optional
+        Spacecraft names, for error messages.
     chunk : int, optional
         Record intervals per compiled call. Default: the whole run in one call, or about 1/50
         of it (a power of two, so that runs of different lengths reuse the compiled program)
@@ -359,12 +363,12 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         for c in range(n_chunks):
             carry, out = compiled(system, carry, c * chunk, n_records)
             out = jax.tree_util.tree_map(np.asarray, out)
-            _check_finite(out, t_s, c * chunk, batched)
+            _check_finite(out, t_s, c * chunk, batched, names)
             chunks.append(out)
             if bar is not None:
                 bar.update(min(chunk, n_records - c * chunk))
         last = jax.tree_util.tree_map(np.asarray, final(system, carry))
-        _check_finite({k: np.expand_dims(v, 1 if batched else 0) for k, v in last.items()}, t_s, n_records, batched)
+        _check_finite({k: np.expand_dims(v, 1 if batched else 0) for k, v in last.items()}, t_s, n_records, batched, names)
     finally:
         if bar is not None:
             bar.close()

@@ -41,26 +41,43 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0):
     )
 
 
-def measure(n, controller, ticks, repeats=3):
-    """(compile s, best run s, spacecraft-steps/s) for ``ticks`` ticks of ``n`` spacecraft."""
+def measure(n, controller, ticks, batch=None, repeats=3):
+    """(compile s, best run s, spacecraft-steps/s) for ``ticks`` ticks of ``n`` spacecraft.
+
+    With ``batch``, that many independent runs (different random formations) go through one
+    ``vmap``-ed loop, as a Monte Carlo campaign does; the rate counts every run's spacecraft.
+    """
     from coopsat.sim.engine import simulate
+    from coopsat.sim.system import stack_systems
 
     record_ticks = min(1000, ticks)
-    system = bench_system(n, controller, record_ticks=record_ticks)
     n_records = ticks // record_ticks
-    first = simulate(system, n_records, record_ticks * 0.01)
-    best = min(simulate(system, n_records, record_ticks * 0.01).run_s for _ in range(repeats))
-    return first.compile_s, best, n * n_records * record_ticks / best
+    if batch is None:
+        system = bench_system(n, controller, record_ticks=record_ticks)
+    else:
+        system = stack_systems([bench_system(n, controller, record_ticks=record_ticks, seed=k) for k in range(batch)])
+    kwargs = {"batched": batch is not None}
+    first = simulate(system, n_records, record_ticks * 0.01, **kwargs)
+    best = min(simulate(system, n_records, record_ticks * 0.01, **kwargs).run_s for _ in range(repeats))
+    return first.compile_s, best, (batch or 1) * n * n_records * record_ticks / best
 
 
-def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None):
-    """Print a throughput table for each case and size."""
+def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=256):
+    """Print a throughput table for each case and size, then a batched (campaign) line."""
     import jax
 
-    print(f"coopsat engine benchmark: JAX {jax.__version__} on {jax.devices()[0].platform}, float64")
-    print(f"{'case':<14}{'N':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}")
+    print(f"coopsat engine benchmark: JAX {jax.__version__} on {jax.devices()[0].platform}, float64, RK4")
+    print(f"{'case':<14}{'N':>7}{'batch':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}")
+
+    def row(label, n, controller, b):
+        total = n * (b or 1)
+        ticks = steps or int(np.clip(2e7 / total, 2_000, 1_000_000) // 1000 * 1000)
+        compile_s, run_s, rate = measure(n, controller, ticks, batch=b)
+        print(f"{label:<14}{n:>7}{b or 1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}", flush=True)
+
     for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
         for n in sizes:
-            ticks = steps or int(np.clip(2e7 / n, 2_000, 1_000_000) // 1000 * 1000)
-            compile_s, run_s, rate = measure(n, controller, ticks)
-            print(f"{label:<14}{n:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}", flush=True)
+            row(label, n, controller, None)
+    if batch:
+        for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
+            row(label, 5, controller, batch)

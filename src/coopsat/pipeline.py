@@ -70,10 +70,37 @@ def _design_metrics(built):
 
 
 def prepare(scenario):
-    """Build a validated scenario; its design-time warnings are in ``built.warnings``."""
+    """Build a validated scenario; its design-time warnings are in ``built.warnings``.
+
+    Also checks, before anything runs, that every ``[[published]]`` quantity names a metric
+    this run will produce.
+    """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConsensusWarning)  # returned in built.warnings instead
-        return build(scenario)
+        built = build(scenario)
+    if scenario.published:
+        known = metric_names(built)
+        for k, entry in enumerate(scenario.published):
+            if entry.quantity not in known:
+                raise ScenarioError(
+                    f"published[{k}].quantity: '{entry.quantity}' is not a metric of this scenario "
+                    f"(metrics: {', '.join(sorted(known))})"
+                )
+    return built
+
+
+def metric_names(built):
+    """Names of the metrics a run of ``built`` will report (from a stand-in two-sample record)."""
+    from coopsat.sim.engine import RunOutput, output_shapes
+    from coopsat.sim.recorder import to_dataset
+
+    samples = {k: np.zeros((2, *shape)) for k, shape in output_shapes(built.system).items()}
+    samples["q_bi"][..., 0] = 1.0
+    if "q_ref" in samples:
+        samples["q_ref"][..., 0] = 1.0
+    ds = to_dataset(RunOutput(np.array([0.0, 1.0]), samples, 0.0, 0.0), built.names, {})
+    metrics, _ = analyse(built, ds, compare=False)
+    return set(metrics)
 
 
 def simulate_built(built, progress=False):
@@ -98,27 +125,33 @@ def simulate_built(built, progress=False):
     return to_dataset(out, built.names, attrs), out
 
 
-def analyse(built, ds):
-    """Metrics and comparison rows of a finished run."""
+def analyse(built, ds, compare=True):
+    """Metrics and comparison rows (empty unless ``compare``) of a finished run."""
     sc = built.scenario
     ctrl = sc.controller
     omega_ref = ctrl.omega_ref_rad_s if isinstance(ctrl, ConsensusTrack) else None
     inertia = np.stack([inertia_matrix(s.inertia_kgm2) for s in sc.spacecraft])
-    metrics = {**_design_metrics(built), **run_metrics(ds, built.names, sc.analysis, inertia, omega_ref)}
+    h_wheels = np.array([s.h_wheels_b_nms for s in sc.spacecraft], dtype=float)
+    metrics = {**_design_metrics(built), **run_metrics(ds, built.names, sc.analysis, inertia, omega_ref, h_wheels)}
+    if not compare:
+        return metrics, []
     note = None
     if built.stability is not None and not built.stability.stable:
         note = stability_message(built.stability, built.names)
-    try:
-        rows = compare_published(sc.published, metrics, note, sc.sim.t_final_s)
-    except KeyError as err:
-        raise ScenarioError(err.args[0]) from None
-    return metrics, rows
+    return metrics, compare_published(sc.published, metrics, note, sc.sim.t_final_s)
 
 
-def _json_default(v):
-    if isinstance(v, np.generic):
-        return v.item()
-    raise TypeError(f"cannot write {type(v).__name__} to JSON")
+def _json_ready(obj):
+    """Plain JSON: NumPy scalars to Python, non-finite numbers to null (strict JSON has neither)."""
+    if isinstance(obj, dict):
+        return {k: _json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_json_ready(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
 
 
 def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
@@ -134,9 +167,9 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
     try:
         ds.to_netcdf(tmp / "result.nc", engine="h5netcdf")
-        (tmp / "metrics.json").write_text(json.dumps(metrics, indent=2, default=_json_default) + "\n")
+        (tmp / "metrics.json").write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False) + "\n")
         if built.scenario.published:
-            (tmp / "comparison.json").write_text(json.dumps(rows, indent=2, default=_json_default) + "\n")
+            (tmp / "comparison.json").write_text(json.dumps(_json_ready(rows), indent=2, allow_nan=False) + "\n")
             (tmp / "comparison.md").write_text(comparison_markdown(rows, built.scenario.name))
         if figures:
             from coopsat.plots.figures import save_figures, standard_figures

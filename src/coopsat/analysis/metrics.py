@@ -93,7 +93,7 @@ def settle_time_s(t_s, ok):
     return float(t_s[0] if bad.size == 0 else t_s[bad[-1] + 1])
 
 
-def inertial_angular_momentum_nms(q, omega, inertia_kgm2):
+def inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms=0.0):
     """Total angular momentum of the formation in inertial components, N·m·s.
 
     Parameters
@@ -101,22 +101,24 @@ def inertial_angular_momentum_nms(q, omega, inertia_kgm2):
     q : ndarray, shape (T, n, 4)
     omega : ndarray, shape (T, n, 3)
     inertia_kgm2 : ndarray, shape (n, 3, 3)
+    h_wheels_b_nms : ndarray, shape (n, 3) or (T, n, 3), optional
+        Wheel momentum relative to each body, body components.
 
     Returns
     -------
     ndarray, shape (T, 3)
-        ``Σ_i C(q_i) I_i ω_i``. Law (3) pushes on each spacecraft in its own body axes, so it
+        ``Σ_i C(q_i) (I_i ω_i + h_w,i)``. Law (3) pushes on each spacecraft in its own body axes, so it
         does not conserve this exactly, but near agreement its torques nearly cancel: a
         formation that starts with momentum ends spinning together, not at rest.
     """
-    h_b = np.einsum("nij,tnj->tni", inertia_kgm2, omega)
+    h_b = np.einsum("nij,tnj->tni", inertia_kgm2, omega) + h_wheels_b_nms
     s = q[..., :1]
     u = q[..., 1:]
     t = 2.0 * np.cross(u, h_b)
     return (h_b + s * t + np.cross(u, t)).sum(axis=1)
 
 
-def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None):
+def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None, h_wheels_b_nms=0.0):
     """All metrics of a run as a flat dict of named numbers (unit at the end of each name).
 
     Parameters
@@ -130,6 +132,8 @@ def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None):
     inertia_kgm2 : ndarray, shape (n, 3, 3)
     omega_ref_rad_s : array_like (3,), optional
         Reference rate of a tracking run; with ``ds.q_ref`` it enables the tracking metrics.
+    h_wheels_b_nms : ndarray, shape (n, 3), optional
+        Wheel momentum of each spacecraft (in the formation's angular momentum).
 
     Returns
     -------
@@ -141,7 +145,7 @@ def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None):
     att = pairwise_attitude_error_deg(q)
     rate = pairwise_rate_difference_rad_s(omega)
     synced = (att < analysis.sync_attitude_deg) & (rate < analysis.sync_rate_rad_s)
-    h = inertial_angular_momentum_nms(q, omega, inertia_kgm2)
+    h = inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms)
     m = {
         "sync_time_s": settle_time_s(t, synced),
         "final_attitude_spread_deg": float(att[-1]),

@@ -126,8 +126,8 @@ def _stability(scenario, inertia, adjacency):
         return analyze_sampled_data(
             inertia, adjacency, ctrl.period_s, ctrl.alpha, ctrl.beta, ctrl.k_p, ctrl.k_d, ctrl.omega_ref_rad_s
         )
-    if not adjacency.any():
-        return None
+    if not topology.spanning_tree_roots(adjacency):
+        return None  # no agreement to be stable about: the graph check has already said so
     return analyze_sampled_data(inertia, adjacency, ctrl.period_s, ctrl.alpha, ctrl.beta)
 
 

@@ -74,6 +74,12 @@ def read_raw(name_or_path, _depth=0):
     return raw, default_name
 
 
+def _kind_changes(base_table, new_kind_or_table):
+    """True when a table that states a ``kind`` is given another one."""
+    new = new_kind_or_table.get("kind") if isinstance(new_kind_or_table, dict) else new_kind_or_table
+    return base_table.get("kind") is not None and new is not None and new != base_table["kind"]
+
+
 def deep_merge(base, child):
     """``child`` over ``base``: tables merge key by key, everything else (arrays too) replaces.
 
@@ -82,8 +88,8 @@ def deep_merge(base, child):
     """
     out = dict(base)
     for key, value in child.items():
-        same_kind = not isinstance(value, dict) or value.get("kind", out.get(key, {}).get("kind")) == out.get(key, {}).get("kind")
-        if isinstance(value, dict) and isinstance(out.get(key), dict) and same_kind:
+        base_value = out.get(key)
+        if isinstance(value, dict) and isinstance(base_value, dict) and not _kind_changes(base_value, value):
             out[key] = deep_merge(out[key], value)
         else:
             out[key] = value
@@ -123,7 +129,7 @@ def apply_override(raw, assignment):
         if not isinstance(node, (dict, list)):
             raise ScenarioError(f"--set {key}: {where} is a value, not a table")
     last = parts[-1]
-    if last == "kind" and isinstance(node, dict) and node.get("kind") not in (None, _parse_value(value.strip())):
+    if last == "kind" and isinstance(node, dict) and _kind_changes(node, _parse_value(value.strip())):
         node.clear()  # another kind is another implementation: start its table afresh (as extends does)
     if isinstance(node, list):
         if not last.isdigit() or int(last) >= len(node):

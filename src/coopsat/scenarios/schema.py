@@ -28,8 +28,13 @@ def _whole_multiple(a, b, name_a, name_b):
         raise ValueError(f"{name_a} ({a:g} s) must be a whole multiple of {name_b} ({b:g} s)")
 
 
+NAME_PATTERN = r"^[A-Za-z0-9_.\-]{1,64}$"
+"""Scenario and spacecraft names: they become file, folder and metric names."""
+
+
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # NaN and infinity are never valid input (an unsaturated actuator omits torque_max_nm).
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 def _check_quaternion(q):
@@ -80,11 +85,18 @@ class SpacecraftDefaults(_Strict):
     omega_b_rad_s: Vec3 | None = None
     h_wheels_b_nms: Vec3 | None = None
 
+    @field_validator("q_bi")
+    @classmethod
+    def _unit_quaternion(cls, q):
+        return q if q is None else _check_quaternion(q)
+
 
 class Spacecraft(_Strict):
     """One ``[[spacecraft]]`` entry (after defaults are merged)."""
 
-    name: str | None = Field(None, description="Unique name; default sat1, sat2, … by position.")
+    name: str | None = Field(
+        None, pattern=NAME_PATTERN, description="Unique name (letters, digits, _ . -); default sat1, sat2, … by position."
+    )
     inertia_kgm2: list[float] | list[list[float]] = Field(
         description="Diagonal [Ixx, Iyy, Izz] or full 3×3 inertia about the centre of mass, body frame, kg·m²."
     )
@@ -249,7 +261,7 @@ class Published(_Strict):
 class Scenario(_Strict):
     """A whole scenario file."""
 
-    name: str
+    name: str = Field(pattern=NAME_PATTERN, description="Scenario name (letters, digits, _ . -); default the file's stem.")
     description: str = ""
     seed: int = Field(0, ge=0)
     sim: Sim

@@ -252,6 +252,18 @@ def _initial_carry(system):
     return (x0, acc, jnp.zeros((), jnp.int64))
 
 
+def output_shapes(system):
+    """Shape of each recorded output of one sample, interface layout, without compiling.
+
+    Returns
+    -------
+    dict of str -> tuple
+        ``(n_spacecraft, k)`` per spacecraft output, ``(k,)`` for reference outputs.
+    """
+    shapes = jax.eval_shape(lambda s: _final_sample(s, _initial_carry(s)), system)
+    return {k: v.shape if k in _REFERENCE_OUTPUTS else v.shape[::-1] for k, v in shapes.items()}
+
+
 @dataclass
 class RunOutput:
     """Recorded samples of one run (or a batch) as NumPy arrays.

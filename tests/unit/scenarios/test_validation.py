@@ -249,7 +249,7 @@ def test_non_finite_rate_written_as_a_toml_literal(tmp_path, literal):
         encoding="utf-8",
     )
     msg = load_error(path)
-    assert msg.startswith("spacecraft[0].omega_b_rad_s:")
+    assert msg.startswith("spacecraft[0].omega_b_rad_s")
     assert "finite" in msg
 
 
@@ -257,7 +257,7 @@ def test_non_finite_rate_written_as_a_toml_literal(tmp_path, literal):
 def test_nan_in_attitude_or_inertia(tmp_path, field):
     value = [float("nan"), 0.0, 0.0, 0.0] if field == "q_bi" else [float("nan"), 1.0, 1.0]
     msg = load_error(scenario_file(tmp_path, {f"spacecraft.0.{field}": value}))
-    assert msg.startswith(f"spacecraft[0].{field}:")
+    assert msg.startswith(f"spacecraft[0].{field}")
     assert "finite" in msg
 
 
@@ -543,16 +543,17 @@ def test_extends_cycle_is_a_scenario_error(tmp_path):
     assert "extends" in msg
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AttributeError,
-    reason="src bug: deep_merge calls .get on the base's array when a file that extends writes "
-    "[spacecraft] (a table) where the base has [[spacecraft]] (an array of tables)",
-)
 def test_extends_table_over_array_is_a_scenario_error(tmp_path):
     path = tmp_path / "table-over-array.toml"
     path.write_text('extends = "consensus-sync-a"\n[spacecraft]\ninertia_kgm2 = [1.0, 1.0, 1.0]\n', encoding="utf-8")
-    load_error(path)
+    assert "spacecraft" in load_error(path)
+
+
+def test_spacecraft_names_must_be_plain(tmp_path):
+    path = tmp_path / "bad-name.toml"
+    path.write_text('extends = "rigid-body-free"\n[[spacecraft]]\nname = "sat\\n9"\ninertia_kgm2 = [1.0, 1.0, 1.0]\n', encoding="utf-8")
+    msg = load_error(path)
+    assert "spacecraft[0].name" in msg and "\n" not in msg
 
 
 # --------------------------------------------------------------------------------- round trip

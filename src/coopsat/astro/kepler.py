@@ -26,7 +26,9 @@ def solve_kepler(mean_anomaly_rad, eccentricity):
             lambda e_anom: e_anom - eccentricity * np.sin(e_anom) - m,
             x0=m if eccentricity < 0.8 else np.pi,
             fprime=lambda e_anom: 1.0 - eccentricity * np.cos(e_anom),
-            tol=1e-15,
+            # Absolute tolerance on E: 1e-15 is about one ulp at E ≥ 4, where Newton can then
+            # cycle between neighbouring floats; 1e-13 rad is far below any physical need.
+            tol=1e-13,
             maxiter=100,
         )
     )

@@ -19,7 +19,8 @@ def matvec3(m, v, axis=-1):
     ----------
     m : array_like
         Full matrices, shape (..., 3, 3) (``axis=-1``) or (3, 3, ...) (``axis=0``); or the
-        diagonal only, with the shape of ``v``.
+        diagonal only, with the shape of ``v``. One matrix per vector: the two forms are told
+        apart by rank, so a single matrix shared by a stack of vectors must be broadcast first.
     v : array_like, shape (..., 3) or (3, ...)
     axis : {-1, 0}
         Component axis of ``v``.

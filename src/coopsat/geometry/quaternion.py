@@ -225,7 +225,9 @@ def quat_exp_rate(omega_b, t_s):
         ``q(t) = q(0) ⊗ quat_exp_rate(ω, t)`` solves ``q̇ = ½ q ⊗ [0, ω]`` exactly.
     """
     t = jnp.asarray(t_s)[..., None]
-    rate = jnp.linalg.norm(omega_b, axis=-1, keepdims=True)
+    rate2 = jnp.sum(omega_b * omega_b, axis=-1, keepdims=True)
+    # |ω| with a finite derivative at ω = 0 (the plain norm's is NaN there).
+    rate = jnp.where(rate2 > 0.0, jnp.sqrt(jnp.where(rate2 > 0.0, rate2, 1.0)), 0.0)
     half = 0.5 * rate * t
     # sin(½|ω|t)/|ω| written with sinc so that ω = 0 is exact and differentiable.
     sin_over_rate = 0.5 * t * jnp.sinc(half / jnp.pi)

@@ -263,11 +263,6 @@ def test_exp_rate_zero_time_is_identity():
     np.testing.assert_array_equal(quat_exp_rate(np.array([0.3, -0.2, 0.1]), 0.0), IDENTITY)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="src bug: quat_exp_rate's docstring promises ω = 0 is differentiable (the sinc form), "
-    "but jnp.linalg.norm(ω) has a NaN derivative at 0, so dq/dω is NaN there",
-)
 def test_exp_rate_differentiable_at_zero_omega():
     # d/dω exp(½ [0, ω] t) at ω = 0 is ½ t [0; I₃]; with t = 2 that is [0; I₃].
     jac = np.asarray(jax.jacfwd(quat_exp_rate)(np.zeros(3), 2.0))

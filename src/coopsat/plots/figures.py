@@ -111,7 +111,9 @@ def torque_figure(ds, spacecraft=0):
     -------
     matplotlib.figure.Figure
         Three stacked axes (x, y, z). The applied torque is a step plot (it is the mean over
-        the control period *starting* at each sample); the command is a thin dashed line.
+        the control period *starting* at each sample); the command is a thin dashed line. The
+        view is scaled to the applied torque: a saturated command runs off the axes, as a
+        thruster's demand does beyond its authority.
     """
     names = _names(ds)
     i = names.index(spacecraft) if isinstance(spacecraft, str) else int(spacecraft)
@@ -119,9 +121,12 @@ def torque_figure(ds, spacecraft=0):
     command = _values(ds, "torque_command", "time", "spacecraft", "component")[:, i]
     t = ds["time"].values
     fig, axes = _stacked(ds, 3, f"torque of {names[i]}")
+    limit = 1.15 * np.abs(torque).max()
     for k, (ax, comp) in enumerate(zip(axes, ds["component"].values)):
         ax.plot(t, torque[:, k], drawstyle="steps-post", label="applied")
         ax.plot(t, command[:, k], "--", lw=0.8, color="k", label="commanded")
+        if limit > 0.0:
+            ax.set_ylim(-limit, limit)
         ax.set_ylabel(f"τ_{comp} [{ds['torque'].attrs['units']}]")
     axes[0].legend(loc="upper right", fontsize="small")
     return fig

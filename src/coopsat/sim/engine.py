@@ -286,6 +286,9 @@ class RunOutput:
     run_s: float
 
 
+_COMPILED = {}
+"""Compiled chunk programs of this process, by system structure, leaf shapes, chunk and batching."""
+
 _REFERENCE_OUTPUTS = {"q_ref"}
 """Outputs that are not per spacecraft (no spacecraft axis to move)."""
 
@@ -356,12 +359,16 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     carry = init(system)
     t_s = np.arange(n_records + 1) * record_interval_s
 
-    # Compile apart from running, so that the two can be reported separately.
+    # Compile apart from running, so that the two can be reported separately; a program is
+    # compiled once per process for each structure, shape and chunk (then JAX's persistent
+    # cache serves new processes).
     t0 = time.perf_counter()
-    if batched:
-        compiled = jax.jit(run_chunk, static_argnums=(4,)).lower(system, carry, 0, n_records, chunk).compile()
-    else:
-        compiled = _run_chunk.lower(system, carry, 0, n_records, chunk).compile()
+    key = (jax.tree_util.tree_structure(system), tuple(jax.ShapeDtypeStruct(jnp.shape(v), jnp.result_type(v))
+           for v in jax.tree_util.tree_leaves(system)), chunk, batched)
+    compiled = _COMPILED.get(key)
+    if compiled is None:
+        jitted = jax.jit(run_chunk, static_argnums=(4,)) if batched else _run_chunk
+        compiled = _COMPILED[key] = jitted.lower(system, carry, 0, n_records, chunk).compile()
     compile_s = time.perf_counter() - t0
 
     bar = None

@@ -13,10 +13,11 @@ EXIT_BAD_INPUT = 2
 
 def _input_errors():
     from coopsat.network.topology import GraphError
+    from coopsat.pipeline import RunFolderError
     from coopsat.scenarios.load import ScenarioError
     from coopsat.sim.engine import NonFiniteStateError
 
-    return (ScenarioError, GraphError, NonFiniteStateError)
+    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError)
 
 
 def _cmd_list(args):

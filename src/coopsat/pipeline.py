@@ -5,6 +5,7 @@ so a failed run (bad input, non-finite state) leaves nothing half-written.
 """
 
 import json
+import os
 import shutil
 import tempfile
 import warnings
@@ -16,10 +17,10 @@ import numpy as np
 
 import coopsat
 from coopsat.analysis.compare import compare_published, comparison_markdown
-from coopsat.analysis.metrics import run_metrics
-from coopsat.scenarios.build import ConsensusWarning, build, inertia_matrix, stability_message
+from coopsat.analysis.metrics import design_metrics, run_metrics
+from coopsat.scenarios.build import ConsensusWarning, build, inertia_matrix
 from coopsat.scenarios.load import ScenarioError, load_scenario, resolved_toml
-from coopsat.scenarios.schema import ConsensusTrack, PwmThrusters
+from coopsat.scenarios.schema import ConsensusTrack
 
 
 @dataclass
@@ -45,28 +46,6 @@ class RunResult:
     warnings: list
     compile_s: float
     run_s: float
-
-
-def _design_metrics(built):
-    """Numbers known before the run: sampled-data check, PWM dead band, spin-down bounds."""
-    sc = built.scenario
-    st = built.stability
-    m = {"control_period_s": sc.control_period_s}
-    act = sc.actuators
-    if isinstance(act, PwmThrusters):
-        m["pwm_deadband_torque_nm"] = act.torque_max_nm * act.min_pulse_s / sc.control_period_s
-    if np.isfinite(act.torque_max_nm) and isinstance(sc.controller, ConsensusTrack):
-        w_ref = np.asarray(sc.controller.omega_ref_rad_s)
-        for s in sc.spacecraft:
-            h_excess = np.abs(np.diag(inertia_matrix(s.inertia_kgm2)) * (np.asarray(s.omega_b_rad_s) - w_ref))
-            m[f"{s.name}_min_spin_down_time_s"] = float(h_excess.max() / act.torque_max_nm)
-    if st is not None:
-        m.update(
-            spectral_radius=st.spectral_radius,
-            max_stable_period_s=st.max_stable_period_s,
-            continuous_max_real_1_s=st.continuous_max_real,
-        )
-    return m
 
 
 def prepare(scenario):
@@ -120,8 +99,8 @@ def simulate_built(built, progress=False):
         "run_time_s": out.run_s,
         "conventions": "SI units; quaternions scalar-first, Hamilton, body to inertial",
     }
-    if built.stability is not None:
-        attrs["sampled_data_check"] = stability_message(built.stability, built.names)
+    if built.stability_note is not None:
+        attrs["sampled_data_check"] = built.stability_note
     return to_dataset(out, built.names, attrs), out
 
 
@@ -132,12 +111,12 @@ def analyse(built, ds, compare=True):
     omega_ref = ctrl.omega_ref_rad_s if isinstance(ctrl, ConsensusTrack) else None
     inertia = np.stack([inertia_matrix(s.inertia_kgm2) for s in sc.spacecraft])
     h_wheels = np.array([s.h_wheels_b_nms for s in sc.spacecraft], dtype=float)
-    metrics = {**_design_metrics(built), **run_metrics(ds, built.names, sc.analysis, inertia, omega_ref, h_wheels)}
+    metrics = {**design_metrics(sc, built.stability), **run_metrics(ds, built.names, sc.analysis, inertia, omega_ref, h_wheels)}
     if not compare:
         return metrics, []
     note = None
     if built.stability is not None and not built.stability.stable:
-        note = stability_message(built.stability, built.names)
+        note = built.stability_note
     return metrics, compare_published(sc.published, metrics, note, sc.sim.t_final_s)
 
 
@@ -154,18 +133,64 @@ def _json_ready(obj):
     return obj
 
 
+RUN_MARKER = "run.json"
+"""Written into every run folder (what ran, when, with which coopsat): only a folder holding
+it is ever replaced by a new run."""
+
+
+class RunFolderError(ValueError):
+    """The run folder cannot be written where the user asked."""
+
+
+def check_run_folder(out_dir):
+    """Refuse, before anything runs, a target that is not a run folder or cannot be created.
+
+    Raises
+    ------
+    RunFolderError
+    """
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not (out_dir.is_dir() and (out_dir / RUN_MARKER).is_file()):
+        raise RunFolderError(
+            f"--out {out_dir}: exists and is not a coopsat run folder (no {RUN_MARKER}); "
+            "choose another folder or remove it"
+        )
+    parent = out_dir.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK):
+        raise RunFolderError(f"--out {out_dir}: cannot create a folder under {parent}")
+
+
 def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
-    """Write result.nc, metrics.json, comparison.{md,json} and figures, atomically.
+    """Write result.nc, metrics.json, comparison.{md,json}, figures and run.json, atomically.
 
     Parameters
     ----------
     out_dir : Path
-        Final folder; an existing one is replaced only once the new one is complete.
+        Final folder; an existing run folder is replaced only once the new one is complete,
+        anything else that exists there is refused (:func:`check_run_folder`).
     """
     out_dir = Path(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+    check_run_folder(out_dir)
     try:
+        out_dir.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+    except OSError as err:
+        raise RunFolderError(f"--out {out_dir}: {err.strerror or err}") from None
+    try:
+        (tmp / RUN_MARKER).write_text(
+            json.dumps(
+                {
+                    "scenario": built.scenario.name,
+                    "seed": built.scenario.seed,
+                    "coopsat_version": coopsat.__version__,
+                    "created_utc": ds.attrs.get("created_utc", ""),
+                },
+                indent=2,
+            )
+            + "\n"
+        )
         ds.to_netcdf(tmp / "result.nc", engine="h5netcdf")
         (tmp / "metrics.json").write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False) + "\n")
         if built.scenario.published:
@@ -212,12 +237,13 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
     RunResult
     """
     scenario = load_scenario(ref, overrides)
+    target = Path(out_dir) if out_dir is not None else Path("runs") / scenario.name
+    check_run_folder(target)
     built = prepare(scenario)
     for note in built.warnings:
         if on_warning is not None:
             on_warning(note)
     ds, out = simulate_built(built, progress=progress)
     metrics, rows = analyse(built, ds)
-    target = Path(out_dir) if out_dir is not None else Path("runs") / scenario.name
     write_run_folder(target, built, ds, metrics, rows, figures=figures)
     return RunResult(target, ds, metrics, rows, built.warnings, out.compile_s, out.run_s)

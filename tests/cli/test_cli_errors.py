@@ -297,3 +297,31 @@ def test_argparse_usage_error_exits_2(capsys):
         main(["run"])
     assert info.value.code == 2
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_run_refuses_to_replace_a_folder_that_is_not_a_run(tmp_path, capsys):
+    precious = tmp_path / "thesis"
+    precious.mkdir()
+    (precious / "chapter1.tex").write_text("months of work")
+    status = main(["run", "rigid-body-free", "--out", str(precious), "-q", "--set", "sim.t_final_s=1.0"])
+    assert status == 2
+    assert "not a coopsat run folder" in capsys.readouterr().err
+    assert [p.name for p in precious.iterdir()] == ["chapter1.tex"]
+    plain = tmp_path / "notes.txt"
+    plain.write_text("keep me")
+    assert main(["run", "rigid-body-free", "--out", str(plain), "-q", "--set", "sim.t_final_s=1.0"]) == 2
+    assert plain.read_text() == "keep me"
+    assert main(["run", "rigid-body-free", "--out", str(plain / "sub"), "-q", "--set", "sim.t_final_s=1.0"]) == 2
+
+
+def test_runaway_sizes_and_seeds_are_refused_before_running(capsys):
+    for override in ("sim.dt_s=1e-300", "sim.t_final_s=1e12", "seed=99999999999999999999999"):
+        assert main(["validate", "rigid-body-free", "--set", override]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("coopsat: error: ") and err.count("\n") == 1
+
+
+def test_a_folder_named_like_a_bundled_scenario_does_not_hide_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "rigid-body-free").mkdir()
+    assert main(["validate", "rigid-body-free"]) == 0

@@ -8,6 +8,8 @@ sample, and None (JSON null) when it does not hold at the last sample.
 
 import numpy as np
 
+from coopsat.geometry.quaternion import quat_angle, quat_error, quat_rotate
+
 EXACT_PAIRS_MAX_N = 64
 """Up to this many spacecraft every pair is compared; above it, each one against the first
 (the pairwise maximum is then bounded by twice the reported value)."""
@@ -18,15 +20,11 @@ def quat_angle_between_deg(q_a, q_b):
 
     Notes
     -----
-    ``2 atan2(|vec(q_b* ⊗ q_a)|, |scalar|)``: sign-invariant (q and −q are one attitude). The
-    vector part is formed directly, ``a0 b⃗ − b0 a⃗ − a⃗ × b⃗`` up to sign, not as
-    ``sqrt(1 − (a·b)²)``, which loses everything below about 1e-6 deg to rounding.
+    The angle of the error quaternion ``q_b* ⊗ q_a`` (sign invariant: q and −q are one
+    attitude), formed from its vector part rather than ``acos`` of a dot product, which loses
+    everything below about 1e-6 deg to rounding.
     """
-    a0, av = q_a[..., :1], q_a[..., 1:]
-    b0, bv = q_b[..., :1], q_b[..., 1:]
-    scalar = np.abs(np.sum(q_a * q_b, axis=-1))
-    vec = b0 * av - a0 * bv - np.cross(bv, av)
-    return np.degrees(2.0 * np.arctan2(np.linalg.norm(vec, axis=-1), scalar))
+    return np.degrees(np.asarray(quat_angle(quat_error(q_a, q_b))))
 
 
 def _pairs(n):
@@ -71,7 +69,7 @@ def pairwise_rate_difference_rad_s(omega):
     return np.linalg.norm(omega[:, i] - omega[:, j], axis=-1).max(axis=1)
 
 
-def settle_time_s(t_s, ok):
+def settle_time_s(t_s, ok, hold_s=0.0):
     """First sample time after which ``ok`` holds at every later sample; None if never.
 
     Parameters
@@ -79,6 +77,9 @@ def settle_time_s(t_s, ok):
     t_s : ndarray, shape (T,)
     ok : ndarray of bool, shape (T,) or (T, k)
         With a second axis, returns one time per column.
+    hold_s : float
+        The condition must have held for at least this long by the end of the run; a
+        condition met only in the last moments is not called settled.
 
     Returns
     -------
@@ -86,11 +87,12 @@ def settle_time_s(t_s, ok):
     """
     ok = np.asarray(ok, dtype=bool)
     if ok.ndim == 2:
-        return [settle_time_s(t_s, ok[:, k]) for k in range(ok.shape[1])]
+        return [settle_time_s(t_s, ok[:, k], hold_s) for k in range(ok.shape[1])]
     if not ok[-1]:
         return None
     bad = np.flatnonzero(~ok)
-    return float(t_s[0] if bad.size == 0 else t_s[bad[-1] + 1])
+    settled = float(t_s[0] if bad.size == 0 else t_s[bad[-1] + 1])
+    return settled if t_s[-1] - settled >= hold_s else None
 
 
 def inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms=0.0):
@@ -112,10 +114,7 @@ def inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms=0.0):
         formation that starts with momentum ends spinning together, not at rest.
     """
     h_b = np.einsum("nij,tnj->tni", inertia_kgm2, omega) + h_wheels_b_nms
-    s = q[..., :1]
-    u = q[..., 1:]
-    t = 2.0 * np.cross(u, h_b)
-    return (h_b + s * t + np.cross(u, t)).sum(axis=1)
+    return np.asarray(quat_rotate(q, h_b)).sum(axis=1)
 
 
 def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None, h_wheels_b_nms=0.0):
@@ -147,7 +146,7 @@ def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None, h_wheel
     synced = (att < analysis.sync_attitude_deg) & (rate < analysis.sync_rate_rad_s)
     h = inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms)
     m = {
-        "sync_time_s": settle_time_s(t, synced),
+        "sync_time_s": settle_time_s(t, synced, analysis.settle_hold_s),
         "final_attitude_spread_deg": float(att[-1]),
         "final_rate_spread_rad_s": float(rate[-1]),
         "final_rate_max_rad_s": float(np.linalg.norm(omega[-1], axis=-1).max()),
@@ -158,10 +157,10 @@ def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None, h_wheel
         err_deg = quat_angle_between_deg(q, ds["q_ref"].values[:, None, :])  # (T, n)
         rate_err = np.linalg.norm(omega - np.asarray(omega_ref_rad_s), axis=-1)  # (T, n)
         tracking = (err_deg < analysis.sync_attitude_deg) & (rate_err < analysis.sync_rate_rad_s)
-        m["track_time_s"] = settle_time_s(t, tracking.all(axis=1))
+        m["track_time_s"] = settle_time_s(t, tracking.all(axis=1), analysis.settle_hold_s)
         m["final_track_error_deg"] = float(err_deg[-1].max())
         m["final_track_rate_error_rad_s"] = float(rate_err[-1].max())
-        for name, ts in zip(names, settle_time_s(t, rate_err < analysis.sync_rate_rad_s)):
+        for name, ts in zip(names, settle_time_s(t, rate_err < analysis.sync_rate_rad_s, analysis.settle_hold_s)):
             m[f"{name}_rate_settle_time_s"] = ts
     if "impulse" in ds:
         impulse = ds["impulse"].values[-1].sum(axis=-1)
@@ -171,4 +170,41 @@ def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None, h_wheel
         on = ds["thruster_on_time"].values[-1].sum(axis=-1)
         for name, value in zip(names, on):
             m[f"{name}_on_time_s"] = float(value)
+        for name, value in zip(names, ds["thruster_firings"].values[-1].sum(axis=-1)):
+            m[f"{name}_firings"] = int(value)
+    return m
+
+
+def design_metrics(scenario, stability):
+    """Numbers known before the run: sampled-data check, PWM dead band, spin-down bounds.
+
+    Parameters
+    ----------
+    scenario : coopsat.scenarios.schema.Scenario
+    stability : coopsat.design.sampled_data.SampledDataStability or None
+
+    Returns
+    -------
+    dict of str -> float
+        ``<name>_min_spin_down_time_s`` is the largest over body axes of
+        ``|(I (ω(0) − ω_r))_k| / T_max``: the time the axis's thrusters need, at full thrust, to
+        remove the initial excess angular momentum (gyroscopic coupling neglected).
+    """
+    from coopsat.scenarios.build import inertia_matrix
+    from coopsat.scenarios.schema import ConsensusTrack, PwmThrusters
+
+    act, ctrl = scenario.actuators, scenario.controller
+    m = {"control_period_s": scenario.control_period_s}
+    if isinstance(act, PwmThrusters):
+        m["pwm_deadband_torque_nm"] = act.torque_max_nm * act.min_pulse_s / scenario.control_period_s
+    if np.isfinite(act.torque_max_nm) and isinstance(ctrl, ConsensusTrack):
+        for s in scenario.spacecraft:
+            h_excess = inertia_matrix(s.inertia_kgm2) @ (np.asarray(s.omega_b_rad_s) - np.asarray(ctrl.omega_ref_rad_s))
+            m[f"{s.name}_min_spin_down_time_s"] = float(np.abs(h_excess).max() / act.torque_max_nm)
+    if stability is not None:
+        m.update(
+            spectral_radius=stability.spectral_radius,
+            max_stable_period_s=stability.max_stable_period_s,
+            continuous_max_real_1_s=stability.continuous_max_real,
+        )
     return m

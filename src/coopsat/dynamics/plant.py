@@ -16,8 +16,6 @@ from coopsat.dynamics.rigid_body import omega_dot_b
 from coopsat.dynamics.translational import j2_accel, two_body_accel
 from coopsat.geometry.quaternion import quat_kinematics
 
-GRAVITY_MODELS = ("none", "two-body", "j2")
-
 
 class PlantState(NamedTuple):
     """State of n spacecraft.

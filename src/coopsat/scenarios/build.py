@@ -18,6 +18,10 @@ from coopsat.scenarios.load import ScenarioError
 from coopsat.scenarios.schema import ConsensusSync, ConsensusTrack, PwmThrusters, Scenario, whole_ratio
 
 
+MAX_CHECKED_SPACECRAFT = 60
+"""Largest formation whose sampled-data loop is checked before a run (dense 6n-state model)."""
+
+
 class ConsensusWarning(UserWarning):
     """A consensus run that will not do what the law promises (unstable sampling, bad graph)."""
 
@@ -39,6 +43,8 @@ class Built:
     record_interval_s : float
     stability : SampledDataStability or None
         Sampled-data check of a consensus law; None without one.
+    stability_note : str or None
+        The check in one line (also a warning when the loop is unstable).
     warnings : list of str
         Design-time warnings, also issued as :class:`ConsensusWarning`.
     """
@@ -50,6 +56,7 @@ class Built:
     n_records: int
     record_interval_s: float
     stability: SampledDataStability | None
+    stability_note: str | None
     warnings: list
 
 
@@ -118,11 +125,24 @@ def _check_graph(scenario, adjacency, names, notes):
     notes.append(msg)
 
 
-def _stability(scenario, inertia, adjacency):
+def _stability(scenario, inertia, adjacency, notes):
     ctrl = scenario.controller
-    if not isinstance(ctrl, ConsensusSync):
+    if not isinstance(ctrl, ConsensusSync) or len(inertia) == 1 and not isinstance(ctrl, ConsensusTrack):
+        return None  # nothing to agree on for one spacecraft without a reference
+    if len(inertia) > MAX_CHECKED_SPACECRAFT:
+        notes.append(
+            f"sampled-data check skipped: {len(inertia)} spacecraft is more than {MAX_CHECKED_SPACECRAFT} "
+            "(its cost grows as n³)"
+        )
         return None
     if isinstance(ctrl, ConsensusTrack):
+        w_r = np.asarray(ctrl.omega_ref_rad_s)
+        off = [s.name for s, i in zip(scenario.spacecraft, inertia) if np.linalg.norm(np.cross(w_r, i @ w_r)) > 1e-12 * (1 + np.linalg.norm(i @ w_r))]
+        if off:
+            notes.append(
+                f"controller.omega_ref_rad_s is not along a principal axis of {', '.join(off)}: steady rotation at the "
+                "reference rate needs a torque there, and the sampled-data check linearises about it regardless"
+            )
         return analyze_sampled_data(
             inertia, adjacency, ctrl.period_s, ctrl.alpha, ctrl.beta, ctrl.k_p, ctrl.k_d, ctrl.omega_ref_rad_s
         )
@@ -131,8 +151,17 @@ def _stability(scenario, inertia, adjacency):
     return analyze_sampled_data(inertia, adjacency, ctrl.period_s, ctrl.alpha, ctrl.beta)
 
 
-def stability_message(st, names):
-    """One line on the sampled-data check, naming the spacecraft and axis that limit it."""
+def stability_message(st, names, saturates=True):
+    """One line on the sampled-data check, naming the spacecraft and axis that limit it.
+
+    Parameters
+    ----------
+    st : SampledDataStability
+    names : sequence of str
+    saturates : bool
+        The actuator saturates (then an unstable loop settles into a limit cycle; without
+        saturation it diverges).
+    """
     sc, axis = st.dominant
     where = f"{names[sc]} {'xyz'[axis]} axis"
     if st.stable:
@@ -143,7 +172,8 @@ def stability_message(st, names):
     return (
         f"sampled-data loop UNSTABLE at T = {st.period_s:g} s: one-period map has spectral radius "
         f"{st.spectral_radius:.3g} > 1 (largest stable period {st.max_stable_period_s:.4g} s; the unstable mode "
-        f"lives on {where}); expect a limit cycle bounded only by actuator saturation"
+        f"lives on {where}); "
+        + ("expect a limit cycle bounded only by actuator saturation" if saturates else "expect divergence (no saturation)")
     )
 
 
@@ -223,9 +253,12 @@ def build(scenario):
             (dt, x0, plant, links.src, links.dst, links.weight, ctrl_params, act_params)
         ),
     )
-    stability = _stability(scenario, inertia, adjacency)
-    if stability is not None and not stability.stable:
-        notes.append(stability_message(stability, names))
+    stability = _stability(scenario, inertia, adjacency, notes)
+    stability_note = None
+    if stability is not None:
+        stability_note = stability_message(stability, names, saturates=bool(np.isfinite(act.torque_max_nm)))
+        if not stability.stable:
+            notes.append(stability_note)
     for note in notes:
         warnings.warn(note, ConsensusWarning, stacklevel=2)
     return Built(
@@ -236,5 +269,6 @@ def build(scenario):
         n_records=whole_ratio(scenario.sim.t_final_s, scenario.record_interval_s),
         record_interval_s=scenario.record_interval_s,
         stability=stability,
+        stability_note=stability_note,
         warnings=notes,
     )

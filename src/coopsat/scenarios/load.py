@@ -50,7 +50,8 @@ def read_raw(name_or_path, _depth=0):
         The file's stem (used when the file sets no ``name``).
     """
     path = Path(name_or_path)
-    if path.suffix == ".toml" or path.exists():
+    # A bare name is a bundled scenario even if a folder of that name is lying around.
+    if path.suffix == ".toml" or path.is_file() or len(path.parts) > 1:
         if not path.is_file():
             raise ScenarioError(f"{name_or_path}: no such scenario file")
         text = path.read_text(encoding="utf-8")

@@ -9,8 +9,16 @@ from typing import Annotated, Literal, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from coopsat.astro.constants import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
+
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 Quat = Annotated[list[float], Field(min_length=4, max_length=4)]
+
+MAX_TICKS = 1e10
+"""Longest run in base ticks (about 10 hours of compute at the engine's speed for N = 5)."""
+
+MAX_SAMPLES = 1e8
+"""Most spacecraft-samples a run may record (about 10 GB of results)."""
 
 QUAT_NORM_TOL = 0.05
 """Scenario quaternions are normalised at load; a norm further than this from 1 is a typo."""
@@ -47,6 +55,27 @@ def _check_quaternion(q):
             "rounded values are normalised)"
         )
     return q
+
+
+def _check_inertia(inertia):
+    """A physical inertia: [Ixx, Iyy, Izz] or symmetric 3×3, positive definite, triangle inequality."""
+    try:
+        m = np.diag(inertia) if np.ndim(inertia) == 1 else np.asarray(inertia, dtype=float)
+    except ValueError:  # ragged nested lists
+        raise ValueError("must be [Ixx, Iyy, Izz] or a 3×3 matrix, kg·m²") from None
+    if m.shape != (3, 3):
+        raise ValueError("must be [Ixx, Iyy, Izz] or a 3×3 matrix, kg·m²")
+    if not np.allclose(m, m.T, rtol=1e-12, atol=0.0):
+        raise ValueError("must be symmetric, kg·m²")
+    eig = np.linalg.eigvalsh(m)
+    if eig[0] <= 0.0:
+        raise ValueError(f"must be positive definite (principal moments {eig.round(6).tolist()} kg·m²)")
+    if eig[0] + eig[1] < eig[2] * (1.0 - 1e-9):
+        raise ValueError(
+            f"principal moments {eig.round(6).tolist()} kg·m² break the triangle inequality "
+            "(I1 + I2 >= I3): no rigid body has them"
+        )
+    return inertia
 
 
 def _check_finite(v):
@@ -90,6 +119,11 @@ class SpacecraftDefaults(_Strict):
     def _unit_quaternion(cls, q):
         return q if q is None else _check_quaternion(q)
 
+    @field_validator("inertia_kgm2")
+    @classmethod
+    def _physical_inertia(cls, inertia):
+        return inertia if inertia is None else _check_inertia(inertia)
+
 
 class Spacecraft(_Strict):
     """One ``[[spacecraft]]`` entry (after defaults are merged)."""
@@ -120,20 +154,7 @@ class Spacecraft(_Strict):
     @field_validator("inertia_kgm2")
     @classmethod
     def _physical_inertia(cls, inertia):
-        m = np.diag(inertia) if np.ndim(inertia) == 1 else np.asarray(inertia, dtype=float)
-        if m.shape != (3, 3):
-            raise ValueError("must be [Ixx, Iyy, Izz] or a 3×3 matrix, kg·m²")
-        if not np.all(np.isfinite(m)) or not np.allclose(m, m.T, rtol=1e-12, atol=0.0):
-            raise ValueError("must be finite and symmetric, kg·m²")
-        eig = np.linalg.eigvalsh(m)
-        if eig[0] <= 0.0:
-            raise ValueError(f"must be positive definite (principal moments {eig.round(6).tolist()} kg·m²)")
-        if eig[0] + eig[1] < eig[2] * (1.0 - 1e-9):
-            raise ValueError(
-                f"principal moments {eig.round(6).tolist()} kg·m² break the triangle inequality "
-                "(I1 + I2 >= I3): no rigid body has them"
-            )
-        return inertia
+        return _check_inertia(inertia)
 
     @model_validator(mode="after")
     def _one_translational_source(self):
@@ -148,9 +169,9 @@ class Orbit(_Strict):
     """``[orbit]``: translational truth model (omit for attitude-only runs)."""
 
     gravity: Literal["two-body", "j2"] = "two-body"
-    mu_m3_s2: float = Field(3.986004418e14, gt=0, description="Central body's gravitational parameter, m³/s².")
-    j2: float = Field(1.08262668e-3, description="Central body's J2.")
-    r_body_m: float = Field(6378137.0, gt=0, description="Central body's equatorial radius, m.")
+    mu_m3_s2: float = Field(MU_EARTH_M3_S2, gt=0, description="Central body's gravitational parameter, m³/s².")
+    j2: float = Field(J2_EARTH, description="Central body's J2.")
+    r_body_m: float = Field(R_EARTH_M, gt=0, description="Central body's equatorial radius, m.")
 
 
 class Network(_Strict):
@@ -168,8 +189,21 @@ class Network(_Strict):
         True, description="A consensus law on a graph without a spanning tree is an error (false: a warning)."
     )
 
+    @field_validator("adjacency")
+    @classmethod
+    def _square(cls, a):
+        if a is not None and any(len(row) != len(a) for row in a):
+            raise ValueError("must be a square n×n matrix (every row as long as there are rows)")
+        return a
+
     @model_validator(mode="after")
     def _fields_match_kind(self):
+        if self.edges:
+            pairs = [(a, b) for a, b, _ in self.edges]
+            pairs += [] if self.directed else [(b, a) for a, b, _ in self.edges]
+            dup = next((p for k, p in enumerate(pairs) if p in pairs[:k]), None)
+            if dup is not None:
+                raise ValueError(f"edges: link {dup[0]} -> {dup[1]} is given twice")
         if self.kind == "edges" and not self.edges:
             raise ValueError("kind = 'edges' needs a non-empty edges list [[transmitter, receiver, weight], ...]")
         if self.kind == "adjacency" and self.adjacency is None:
@@ -241,6 +275,9 @@ class Analysis(_Strict):
 
     sync_attitude_deg: float = Field(1.0, gt=0, description="Pairwise attitude error that counts as synchronised, deg.")
     sync_rate_rad_s: float = Field(0.01, gt=0, description="Pairwise rate difference that counts as synchronised, rad/s.")
+    settle_hold_s: float = Field(
+        10.0, ge=0, description="A settle time counts only if the condition has held this long by the end of the run, s."
+    )
 
 
 class Published(_Strict):
@@ -263,7 +300,7 @@ class Scenario(_Strict):
 
     name: str = Field(pattern=NAME_PATTERN, description="Scenario name (letters, digits, _ . -); default the file's stem.")
     description: str = ""
-    seed: int = Field(0, ge=0)
+    seed: int = Field(0, ge=0, lt=2**63, description="Seed of every random draw of the run (stored in result.nc).")
     sim: Sim
     spacecraft: list[Spacecraft] = Field(min_length=1)
     orbit: Orbit | None = None
@@ -290,6 +327,15 @@ class Scenario(_Strict):
         _whole_multiple(period, self.sim.dt_s, "controller.period_s", "sim.dt_s")
         _whole_multiple(self.record_interval_s, period, "sim.record_interval_s", "the control period")
         _whole_multiple(self.sim.t_final_s, self.record_interval_s, "sim.t_final_s", "sim.record_interval_s")
+        n_ticks = self.sim.t_final_s / self.sim.dt_s
+        if n_ticks > MAX_TICKS:
+            raise ValueError(f"sim: {n_ticks:.3g} ticks (t_final_s / dt_s) is more than {MAX_TICKS:.0e}; take a larger step")
+        n_samples = self.sim.t_final_s / self.record_interval_s
+        if n_samples * len(self.spacecraft) > MAX_SAMPLES:
+            raise ValueError(
+                f"sim.record_interval_s: {n_samples:.3g} samples of {len(self.spacecraft)} spacecraft is more than "
+                f"{MAX_SAMPLES:.0e} spacecraft-samples; record less often"
+            )
         if isinstance(self.actuators, PwmThrusters) and not self.actuators.min_pulse_s < period:
             raise ValueError(
                 f"actuators.min_pulse_s ({self.actuators.min_pulse_s:g} s) must be shorter than the control period "

@@ -141,14 +141,17 @@ def _rk4(x, torque, h, system):
     )
 
 
-def _integrate_tick(x, pulse, t_in_period, system):
+def _integrate_tick(x, pulse, t_in_period, system, batched):
     """Advance one base tick that starts ``t_in_period`` seconds into the control period."""
     dt = system.dt_s
     sub = system.structure.substeps
-    if not ACTUATORS[system.structure.actuator].pulsed:
+
+    def smooth(xx, torque):
         for _ in range(sub):
-            x = _rk4(x, pulse.level_nm, dt / sub, system)
-    else:
+            xx = _rk4(xx, torque, dt / sub, system)
+        return xx
+
+    def split(xx):
         # Switch instants of the three axes inside this tick, sorted per spacecraft: the torque
         # is constant between consecutive instants, so each segment is integrated exactly as a
         # smooth ODE. Zero-length segments are RK4 steps of length 0, i.e. no-ops.
@@ -159,7 +162,19 @@ def _integrate_tick(x, pulse, t_in_period, system):
             a, b = bounds[m], bounds[m + 1]
             torque = torque_between(pulse, t_in_period + a, t_in_period + b)
             for _ in range(sub):
-                x = _rk4(x, torque, (b - a) / sub, system)
+                xx = _rk4(xx, torque, (b - a) / sub, system)
+        return xx
+
+    if not ACTUATORS[system.structure.actuator].pulsed:
+        x = smooth(x, pulse.level_nm)
+    elif batched:
+        x = split(x)  # under vmap a cond would evaluate both branches anyway
+    else:
+        # Most ticks of a long period hold no switch: integrate those in one piece, with each
+        # axis on or off for the whole tick.
+        switch_inside = (pulse.t_off_s > t_in_period) & (pulse.t_off_s < t_in_period + dt) & (pulse.level_nm != 0.0)
+        held = jnp.where(pulse.t_off_s >= t_in_period + dt, pulse.level_nm, 0.0)
+        x = jax.lax.cond(jnp.any(switch_inside), split, lambda xx: smooth(xx, held), x)
     return x._replace(q_bi=quat_normalize(x.q_bi, AXIS))
 
 
@@ -174,61 +189,63 @@ def _command(system, x, tick):
 
 
 def _account(system, pulse):
-    """Per-period increments of the counters: |angular impulse| per axis and thruster on-times."""
-    inc = {"abs_impulse_nms": jnp.abs(pulse.level_nm) * pulse.t_off_s}
+    """Per-period increments of the counters: angular impulse per axis (signed and absolute),
+    and per thruster the on-time and the number of firings."""
+    inc = {"impulse_nms": pulse.level_nm * pulse.t_off_s, "abs_impulse_nms": jnp.abs(pulse.level_nm) * pulse.t_off_s}
     if ACTUATORS[system.structure.actuator].counts_thrusters:
-        inc["thruster_on_time_s"] = thruster_on_time_s(pulse, AXIS)
+        on = thruster_on_time_s(pulse, AXIS)
+        inc["thruster_on_time_s"] = on
+        inc["thruster_firings"] = (on > 0.0).astype(on.dtype)
     return inc
 
 
-def _period(system, carry):
+def _period(system, carry, batched):
     """One control period. Returns the new carry and the period's (pulse, command, aux)."""
     x, acc, tick = carry
     pulse, u, aux = _command(system, x, tick)
     tpp = system.structure.ticks_per_period
     if tpp == 1:
-        x = _integrate_tick(x, pulse, 0.0, system)
+        x = _integrate_tick(x, pulse, 0.0, system, batched)
     else:
-        x = jax.lax.fori_loop(0, tpp, lambda k, xx: _integrate_tick(xx, pulse, k * system.dt_s, system), x)
+        x = jax.lax.fori_loop(0, tpp, lambda k, xx: _integrate_tick(xx, pulse, k * system.dt_s, system, batched), x)
     acc = jax.tree_util.tree_map(jnp.add, acc, _account(system, pulse))
     return (x, acc, tick + tpp), (pulse, u, aux)
 
 
-def _sample(system, x, acc, pulse, u, aux):
-    sample = {
-        "q_bi": x.q_bi,
-        "omega_b": x.omega_b,
-        "command_nm": u,
-        "torque_nm": pulse_mean_torque(pulse, system.period_s),
-        **acc,
-        **aux,
-    }
+def _sample(system, x, acc, torque, u, aux):
+    sample = {"q_bi": x.q_bi, "omega_b": x.omega_b, "command_nm": u, "torque_nm": torque, **acc, **aux}
     if system.structure.gravity != "none":
         sample.update(r_eci=x.r_eci, v_eci=x.v_eci)
     return sample
 
 
-def _block(system, carry):
-    """One record interval: sample at its start, then ``periods_per_record`` periods."""
+def _block(system, carry, batched):
+    """One record interval: the sample at its start, then ``periods_per_record`` periods.
+
+    The sample holds the state and command at its instant and the mean torque actually
+    applied over the whole interval that follows (from the signed impulse accumulated over
+    it), so no period is left out of the record.
+    """
     x, acc, _ = carry
-    carry, (pulse, u, aux) = _period(system, carry)
-    sample = _sample(system, x, acc, pulse, u, aux)
+    carry, (_, u, aux) = _period(system, carry, batched)
     rest = system.structure.periods_per_record - 1
     if rest > 0:
-        carry = jax.lax.fori_loop(0, rest, lambda _, c: _period(system, c)[0], carry)
-    return carry, sample
+        carry = jax.lax.fori_loop(0, rest, lambda _, c: _period(system, c, batched)[0], carry)
+    interval = system.period_s * system.structure.periods_per_record
+    torque = (carry[1]["impulse_nms"] - acc["impulse_nms"]) / interval
+    return carry, _sample(system, x, acc, torque, u, aux)
 
 
-@partial(jax.jit, static_argnames=("chunk",))
-def _run_chunk(system, carry, first_record, n_records, chunk):
+@partial(jax.jit, static_argnames=("chunk", "batched"))
+def _run_chunk(system, carry, first_record, n_records, chunk, batched=False):
     """``chunk`` record intervals; those at or past ``n_records`` pass the carry through."""
     system = _engine_view(system)
 
     def body(c, k):
-        template = jax.eval_shape(lambda cc: _block(system, cc)[1], c)
+        template = jax.eval_shape(lambda cc: _block(system, cc, batched)[1], c)
         return jax.lax.cond(
             first_record + k < n_records,
-            lambda cc: _block(system, cc),
+            lambda cc: _block(system, cc, batched),
             lambda cc: (cc, jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), template)),
             c,
         )
@@ -238,10 +255,11 @@ def _run_chunk(system, carry, first_record, n_records, chunk):
 
 @jax.jit
 def _final_sample(system, carry):
+    """The sample at the end of the run; its torque is the mean of the period that would follow."""
     system = _engine_view(system)
     x, acc, tick = carry
     pulse, u, aux = _command(system, x, tick)
-    return _sample(system, x, acc, pulse, u, aux)
+    return _sample(system, x, acc, pulse_mean_torque(pulse, system.period_s), u, aux)
 
 
 def _initial_carry(system):
@@ -287,7 +305,9 @@ class RunOutput:
 
 
 _COMPILED = {}
-"""Compiled chunk programs of this process, by system structure, leaf shapes, chunk and batching."""
+"""Compiled chunk programs of this process, by system structure, leaf shapes, chunk and batching
+(least recently used first)."""
+_COMPILED_MAX = 32
 
 _REFERENCE_OUTPUTS = {"q_ref"}
 """Outputs that are not per spacecraft (no spacecraft axis to move)."""
@@ -347,13 +367,15 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         When the state becomes NaN or infinite; the run stops at the chunk where it happened.
     """
     if chunk is None:
-        chunk = 2 ** math.ceil(math.log2(max(1, n_records / 50))) if progress else max(1, n_records)
+        # Powers of two, so that runs of different lengths share compiled programs (the padded
+        # record intervals of the last chunk are skipped, not simulated).
+        chunk = 2 ** math.ceil(math.log2(max(1, n_records / 50 if progress else n_records)))
     n_chunks = math.ceil(n_records / chunk)
     run_chunk = _run_chunk
     final = _final_sample
     init = _initial_carry
     if batched:
-        run_chunk = jax.vmap(_run_chunk, in_axes=(0, 0, None, None, None))
+        run_chunk = jax.vmap(partial(_run_chunk, batched=True), in_axes=(0, 0, None, None, None))
         final = jax.vmap(_final_sample)
         init = jax.vmap(_initial_carry)
     carry = init(system)
@@ -365,10 +387,13 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     t0 = time.perf_counter()
     key = (jax.tree_util.tree_structure(system), tuple(jax.ShapeDtypeStruct(jnp.shape(v), jnp.result_type(v))
            for v in jax.tree_util.tree_leaves(system)), chunk, batched)
-    compiled = _COMPILED.get(key)
+    compiled = _COMPILED.pop(key, None)
     if compiled is None:
         jitted = jax.jit(run_chunk, static_argnums=(4,)) if batched else _run_chunk
-        compiled = _COMPILED[key] = jitted.lower(system, carry, 0, n_records, chunk).compile()
+        compiled = jitted.lower(system, carry, 0, n_records, chunk).compile()
+    _COMPILED[key] = compiled  # most recently used last
+    while len(_COMPILED) > _COMPILED_MAX:
+        _COMPILED.pop(next(iter(_COMPILED)))
     compile_s = time.perf_counter() - t0
 
     bar = None

@@ -13,10 +13,12 @@ from coopsat.actuators.pwm import THRUSTER_NAMES
 _VARIABLES = {
     "q_bi": ("q", ("q_component",), "1", "", "attitude quaternion of body relative to inertial, scalar first"),
     "omega_b": ("omega", ("component",), "rad/s", "body", "body angular rate relative to inertial"),
-    "torque_nm": ("torque", ("component",), "N m", "body", "mean torque actually applied over the control period starting at the sample"),
+    "torque_nm": ("torque", ("component",), "N m", "body", "mean torque actually applied over the record interval starting at the sample (last sample: over the control period that would follow)"),
     "command_nm": ("torque_command", ("component",), "N m", "body", "torque commanded by the control law at the sample"),
-    "abs_impulse_nms": ("impulse", ("component",), "N m s", "body", "cumulative absolute angular impulse per axis, from t = 0 to the sample"),
+    "impulse_nms": ("angular_impulse", ("component",), "N m s", "body", "cumulative signed angular impulse of the actuators per body axis, from t = 0 to the sample"),
+    "abs_impulse_nms": ("impulse", ("component",), "N m s", "body", "cumulative absolute angular impulse per body axis (actuator effort), from t = 0 to the sample"),
     "thruster_on_time_s": ("thruster_on_time", ("thruster",), "s", "", "cumulative on-time of each thruster, from t = 0 to the sample"),
+    "thruster_firings": ("thruster_firings", ("thruster",), "1", "", "cumulative number of firings (control periods with a pulse) of each thruster"),
     "r_eci": ("r_eci", ("component",), "m", "ECI", "position"),
     "v_eci": ("v_eci", ("component",), "m/s", "ECI", "velocity"),
 }

@@ -65,10 +65,11 @@ class System:
     x0 : PlantState
         Initial state, fields ``(n, ...)``.
     plant : PlantParams
-    links_src, links_dst : int arrays (E,)
-        Transmitter and receiver of each directed edge (sorted by receiver).
-    links_weight : (E,)
-        Edge weights ``a_ij``.
+    links_src, links_dst : int arrays, (E,) or (d, n)
+        Transmitter and receiver of each link: an edge list sorted by receiver, or a padded
+        in-neighbour table (see :class:`~coopsat.network.topology.Links`).
+    links_weight : (E,) or (d, n)
+        Link weights ``a_ij`` (0 in padding slots).
     controller : dict of arrays
         Gains and references of the control law (keys depend on the law).
     actuator : dict of arrays

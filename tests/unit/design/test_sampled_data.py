@@ -71,3 +71,39 @@ def test_nonlinear_loop_confirms_the_bound(factor, grows):
     spread = np.linalg.norm(w - w.mean(axis=1, keepdims=True), axis=(1, 2))
     assert (spread[-1] > 10 * spread[0]) == grows
     assert (spread[-1] < spread[0]) == (not grows)
+
+
+def test_linearisation_matches_a_finite_difference_jacobian_about_a_spinning_reference():
+    # One spacecraft tracking ω_r = [0, 0.1, 0] (a principal axis): the nonlinear error
+    # dynamics of law (4), differentiated numerically at the reference, must equal A − B G.
+    inertia = np.diag([1.0, 0.1, 0.9])
+    w_r = np.array([0.0, 0.1, 0.0])
+    k_p, k_d = 90.0, 80.0
+
+    def quat_mul(p, q):
+        return np.concatenate([[p[0] * q[0] - p[1:] @ q[1:]], p[0] * q[1:] + q[0] * p[1:] + np.cross(p[1:], q[1:])])
+
+    def f(x):
+        eps, dw = x[:3], x[3:]
+        q_e = np.concatenate([[np.sqrt(1.0 - eps @ eps)], eps])  # q_r* ⊗ q_i with q_r = identity now
+        w = w_r + dw
+        dq_e = -0.5 * quat_mul(np.concatenate([[0.0], w_r]), q_e) + 0.5 * quat_mul(q_e, np.concatenate([[0.0], w]))
+        u = -k_p * eps - k_d * dw
+        return np.concatenate([dq_e[1:], np.linalg.solve(inertia, u - np.cross(w, inertia @ w))])
+
+    h = 1e-7
+    jac = np.column_stack([(f(h * e) - f(-h * e)) / (2 * h) for e in np.eye(6)])
+    a, b, g = linearize_consensus_loop(inertia[None], np.zeros((1, 1)), 1.0, 2.0, k_p, k_d, w_r)
+    np.testing.assert_allclose(a - b @ g, jac, atol=1e-6)
+
+
+def test_one_spacecraft_and_unsaturated_messages():
+    # One spacecraft under the sync law: nothing to agree on, no check and no crash.
+    built = prepare(load_scenario("rigid-body-free", [
+        "controller.kind=consensus-sync", "controller.period_s=0.001", "controller.alpha=1.0", "controller.beta=2.0",
+        "network.kind=ring", "sim.t_final_s=1.0",
+    ]))
+    assert built.stability is None
+    # An unstable loop with an unsaturated actuator diverges rather than settling into a cycle.
+    built = prepare(load_scenario("consensus-sync-a", ["actuators.kind=ideal-torque"]))
+    assert "expect divergence" in built.stability_note

@@ -293,7 +293,7 @@ def test_adjacency_of_the_wrong_size(tmp_path):
 
 def test_adjacency_not_square(tmp_path):
     adjacency = [[0.0, 1.0, 1.0], [1.0, 0.0, 1.0]]
-    msg = build_error(scenario_file(tmp_path, {"network": {"kind": "adjacency", "adjacency": adjacency}}))
+    msg = load_error(scenario_file(tmp_path, {"network": {"kind": "adjacency", "adjacency": adjacency}}))
     assert msg.startswith("network.adjacency:")
     assert "square" in msg
 

@@ -17,8 +17,8 @@ Quat = Annotated[list[float], Field(min_length=4, max_length=4)]
 MAX_TICKS = 1e10
 """Longest run in base ticks (about 10 hours of compute at the engine's speed for N = 5)."""
 
-MAX_SAMPLES = 1e8
-"""Most spacecraft-samples a run may record (about 10 GB of results)."""
+MAX_SAMPLES = 1e7
+"""Most spacecraft-samples a run may record (about 250 bytes each with PWM: 2.5 GB)."""
 
 QUAT_NORM_TOL = 0.05
 """Scenario quaternions are normalised at load; a norm further than this from 1 is a typo."""

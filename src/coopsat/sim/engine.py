@@ -10,11 +10,13 @@ the sorted switch instants of each spacecraft (at most three per tick, one per a
 on-time is honoured exactly. Inside the loop every per-spacecraft array is component-major,
 ``(k, n)``: each component is a contiguous row, so XLA vectorises the arithmetic over spacecraft
 (twice the throughput of ``(n, k)`` on the CPU); the layout changes only at the boundaries
-(:func:`_engine_view`, :func:`simulate`). A record is taken every ``periods_per_record`` periods: the state
-at the record instant and the command, applied mean torque and auxiliary outputs of the period
-that starts there. The run is one jitted ``lax.scan`` over records, cut into equal chunks only
-to move a progress bar; ``jax.vmap`` over a batched :class:`~coopsat.sim.system.System` runs
-many at once. There is no Python loop over ticks, spacecraft or edges.
+(:func:`_engine_view`, :func:`simulate`). A record is taken every ``periods_per_record`` periods:
+the state, command and auxiliary outputs at the record instant, the mean torque applied over
+the interval that starts there, and the cumulative counters. The run is one jitted
+``lax.scan`` over records, cut into equal power-of-two chunks (to move a progress bar, and so
+that runs of similar length share a compiled program); ``jax.vmap`` over a batched
+:class:`~coopsat.sim.system.System` runs many at once. There is no Python loop over ticks,
+spacecraft or edges.
 """
 
 import dataclasses
@@ -57,7 +59,7 @@ def _engine_view(system):
     return dataclasses.replace(system, plant=p._replace(inertia_kgm2=_cm(p.inertia_kgm2), inertia_inv=_cm(p.inertia_inv)))
 
 
-# --- controllers: (t, outbox, inbox, system) -> (command (n, 3), aux dict) -------------------
+# --- controllers: (t, outbox, inbox, system) -> (command (3, n), aux dict) -------------------
 
 
 def _no_control(t, own, inbox, system):
@@ -309,6 +311,9 @@ _COMPILED = {}
 (least recently used first)."""
 _COMPILED_MAX = 32
 
+MAX_CHUNK = 4096
+"""Most record intervals per compiled call: bounds the padding of the last chunk (memory)."""
+
 _REFERENCE_OUTPUTS = {"q_ref"}
 """Outputs that are not per spacecraft (no spacecraft axis to move)."""
 
@@ -353,9 +358,9 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     names : sequence of str, optional
         Spacecraft names, for error messages.
     chunk : int, optional
-        Record intervals per compiled call. Default: the whole run in one call, or about 1/50
-        of it (a power of two, so that runs of different lengths reuse the compiled program)
-        when a progress bar is shown.
+        Record intervals per compiled call. Default: a power of two (so that runs of similar
+        length reuse the compiled program) covering the whole run, at most :data:`MAX_CHUNK`,
+        or about 1/50 of the run when a progress bar is shown.
 
     Returns
     -------
@@ -369,7 +374,7 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     if chunk is None:
         # Powers of two, so that runs of different lengths share compiled programs (the padded
         # record intervals of the last chunk are skipped, not simulated).
-        chunk = 2 ** math.ceil(math.log2(max(1, n_records / 50 if progress else n_records)))
+        chunk = min(2 ** math.ceil(math.log2(max(1, n_records / 50 if progress else n_records))), MAX_CHUNK)
     n_chunks = math.ceil(n_records / chunk)
     run_chunk = _run_chunk
     final = _final_sample

@@ -27,12 +27,16 @@ def quat_angle_between_deg(q_a, q_b):
     return np.degrees(np.asarray(quat_angle(quat_error(q_a, q_b))))
 
 
-def _pairs(n):
+def _pairwise_max(x, distance):
+    """Largest ``distance`` over pairs of spacecraft at each sample; x (T, n, k) -> (T,)."""
+    n = x.shape[1]
+    if n < 2:
+        return np.zeros(x.shape[0])
     if n <= EXACT_PAIRS_MAX_N:
         i, j = np.triu_indices(n, k=1)
     else:
         i, j = np.arange(1, n), np.zeros(n - 1, dtype=int)
-    return i, j
+    return distance(x[:, i], x[:, j]).max(axis=1)
 
 
 def pairwise_attitude_error_deg(q):
@@ -46,10 +50,7 @@ def pairwise_attitude_error_deg(q):
     -------
     ndarray, shape (T,)
     """
-    if q.shape[1] < 2:
-        return np.zeros(q.shape[0])
-    i, j = _pairs(q.shape[1])
-    return quat_angle_between_deg(q[:, i], q[:, j]).max(axis=1)
+    return _pairwise_max(q, quat_angle_between_deg)
 
 
 def pairwise_rate_difference_rad_s(omega):
@@ -63,10 +64,7 @@ def pairwise_rate_difference_rad_s(omega):
     -------
     ndarray, shape (T,)
     """
-    if omega.shape[1] < 2:
-        return np.zeros(omega.shape[0])
-    i, j = _pairs(omega.shape[1])
-    return np.linalg.norm(omega[:, i] - omega[:, j], axis=-1).max(axis=1)
+    return _pairwise_max(omega, lambda a, b: np.linalg.norm(a - b, axis=-1))
 
 
 def settle_time_s(t_s, ok, hold_s=0.0):

@@ -7,12 +7,11 @@ scenario is built). docs/scenarios.md documents each field; keep the two in step
 from typing import Annotated, Literal, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from coopsat.astro.constants import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
 
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
-Quat = Annotated[list[float], Field(min_length=4, max_length=4)]
 
 MAX_TICKS = 1e10
 """Longest run in base ticks (about 10 hours of compute at the engine's speed for N = 5)."""
@@ -84,6 +83,13 @@ def _check_finite(v):
     return v
 
 
+Quat = Annotated[list[float], Field(min_length=4, max_length=4), AfterValidator(_check_quaternion)]
+"""A scalar-first quaternion, unit to within :data:`QUAT_NORM_TOL`."""
+
+Inertia = Annotated[list[float] | list[list[float]], AfterValidator(_check_inertia)]
+"""[Ixx, Iyy, Izz] or a symmetric 3×3, kg·m², physically possible."""
+
+
 class Sim(_Strict):
     """``[sim]``: time base of the run."""
 
@@ -109,20 +115,10 @@ class Elements(_Strict):
 class SpacecraftDefaults(_Strict):
     """``[spacecraft_defaults]``: fields every ``[[spacecraft]]`` inherits unless it sets them."""
 
-    inertia_kgm2: list[float] | list[list[float]] | None = None
+    inertia_kgm2: Inertia | None = None
     q_bi: Quat | None = None
     omega_b_rad_s: Vec3 | None = None
     h_wheels_b_nms: Vec3 | None = None
-
-    @field_validator("q_bi")
-    @classmethod
-    def _unit_quaternion(cls, q):
-        return q if q is None else _check_quaternion(q)
-
-    @field_validator("inertia_kgm2")
-    @classmethod
-    def _physical_inertia(cls, inertia):
-        return inertia if inertia is None else _check_inertia(inertia)
 
 
 class Spacecraft(_Strict):
@@ -131,7 +127,7 @@ class Spacecraft(_Strict):
     name: str | None = Field(
         None, pattern=NAME_PATTERN, description="Unique name (letters, digits, _ . -); default sat1, sat2, … by position."
     )
-    inertia_kgm2: list[float] | list[list[float]] = Field(
+    inertia_kgm2: Inertia = Field(
         description="Diagonal [Ixx, Iyy, Izz] or full 3×3 inertia about the centre of mass, body frame, kg·m²."
     )
     q_bi: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Initial attitude, body relative to inertial, scalar first.")
@@ -141,20 +137,10 @@ class Spacecraft(_Strict):
     v_eci_m_s: Vec3 | None = None
     elements: Elements | None = None
 
-    @field_validator("q_bi")
-    @classmethod
-    def _unit_quaternion(cls, q):
-        return _check_quaternion(q)
-
     @field_validator("omega_b_rad_s", "h_wheels_b_nms", "r_eci_m", "v_eci_m_s")
     @classmethod
     def _finite(cls, v):
         return v if v is None else _check_finite(v)
-
-    @field_validator("inertia_kgm2")
-    @classmethod
-    def _physical_inertia(cls, inertia):
-        return _check_inertia(inertia)
 
     @model_validator(mode="after")
     def _one_translational_source(self):
@@ -242,11 +228,6 @@ class ConsensusTrack(ConsensusSync):
     k_d: float = Field(gt=0, description="Reference rate gain D, N·m·s/rad.")
     omega_ref_rad_s: Vec3 = Field(description="Constant reference body rate ω_r, rad/s.")
     q_ref0: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Reference attitude at t = 0, scalar first.")
-
-    @field_validator("q_ref0")
-    @classmethod
-    def _unit_quaternion(cls, q):
-        return _check_quaternion(q)
 
 
 Controller = Annotated[Union[NoController, ConsensusSync, ConsensusTrack], Field(discriminator="kind")]

@@ -74,6 +74,10 @@ def _cmd_run(args):
         for row in result.comparison:
             ours = "never" if row["ours"] is None else f"{row['ours']:.4g}"
             print(f"  {row['quantity']}: published {row['published']:g}, ours {ours}: {row['verdict']}")
+            if row["reason"]:
+                print(f"    {row['reason']}")
+        if result.comparison:
+            print(f"  (comparison.md in {result.out_dir})")
     return 0
 
 

@@ -44,8 +44,8 @@ def _rest_explanation(quantity, metrics):
 def _deadband_explanation(quantity, metrics):
     """A PWM minimum pulse leaves small commands unexecuted: errors stall instead of vanishing."""
     deadband = metrics.get("pwm_deadband_torque_nm")
-    if deadband is None or metrics.get(quantity) is not None:
-        return None
+    if deadband is None or metrics.get(quantity) is not None or metrics.get("spectral_radius", 0.0) >= 1.0:
+        return None  # an unstable loop is explanation enough; the dead band is not the cause
     spread = metrics.get("final_attitude_spread_deg")
     tail = f"; the attitude spread ends at {spread:.3g} deg" if spread is not None else ""
     return (

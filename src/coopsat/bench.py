@@ -35,7 +35,7 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0):
                 dt_s,
                 PlantState(q, rng.normal(scale=0.1, size=(n, 3)), zeros, zeros, zeros),
                 PlantParams(principal, 1.0 / principal, 0.0, 0.0, 1.0),
-                links.src, links.dst, links.weight, params, {"torque_max_nm": 0.05},
+                links.src, links.dst, links.weight[None], np.zeros(1, np.int64), params, {"torque_max_nm": 0.05},
             )
         ),
     )

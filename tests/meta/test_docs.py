@@ -17,6 +17,8 @@ MODELS = [
     schema.SpacecraftDefaults,
     schema.Spacecraft,
     schema.Orbit,
+    schema.Graph,
+    schema.GraphSwitch,
     schema.Network,
     schema.NoController,
     schema.ConsensusSync,

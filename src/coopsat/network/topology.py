@@ -193,6 +193,29 @@ def links_from_adjacency(a, layout="auto"):
     return Links(src=table_src, dst=np.tile(np.arange(n, dtype=np.int32), (d, 1)), weight=table_w, n=n)
 
 
+def links_for_schedule(adjacencies, layout="auto"):
+    """Links of a switching topology: one index set (the union), one weight set per graph.
+
+    Parameters
+    ----------
+    adjacencies : sequence of array_like, each (n, n)
+        The graphs in time order.
+    layout : {"auto", "edges", "padded"}
+        As :func:`links_from_adjacency`, chosen on the union.
+
+    Returns
+    -------
+    Links
+        ``weight`` has a leading axis, one row per graph: (G, E) or (G, d, n). A link absent
+        from a graph has weight 0 there (a failed link carries nothing).
+    """
+    stack = np.asarray(adjacencies, dtype=float)
+    union = links_from_adjacency((stack > 0).any(axis=0).astype(float), layout=layout)
+    # Padding slots point a spacecraft at itself, where every adjacency is 0: weight 0.
+    weight = stack[:, union.dst, union.src]
+    return Links(src=union.src, dst=union.dst, weight=weight, n=union.n)
+
+
 def information_digraph(a):
     """networkx DiGraph with an edge j→i for every ``a_ij > 0`` (direction of information flow)."""
     a = np.asarray(a, dtype=float)

@@ -5,6 +5,7 @@ checked for a spanning tree, orbital elements become ECI states, and the sampled
 a consensus law is linearised and its stability reported (:mod:`coopsat.design.sampled_data`).
 """
 
+import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
@@ -37,7 +38,11 @@ class Built:
     names : list of str
         Spacecraft names, in state order.
     adjacency : ndarray (n, n)
-        ``A[i, j]`` = weight with which i hears j.
+        ``A[i, j]`` = weight with which i hears j, of the graph at t = 0.
+    adjacencies : list of ndarray (n, n)
+        Every graph of the run, in time order (one unless the topology switches).
+    switch_times_s : list of float
+        When each graph takes over (the first at 0).
     n_records : int
         Record intervals in the run (``n_records + 1`` samples).
     record_interval_s : float
@@ -53,6 +58,8 @@ class Built:
     system: object
     names: list
     adjacency: np.ndarray
+    adjacencies: list
+    switch_times_s: list
     n_records: int
     record_interval_s: float
     stability: SampledDataStability | None
@@ -65,8 +72,16 @@ def inertia_matrix(inertia):
     return np.diag(inertia) if np.ndim(inertia) == 1 else np.asarray(inertia, dtype=float)
 
 
-def build_adjacency(network, names):
-    """Adjacency ``A[i, j]`` (i hears j) of the scenario's network, shape (n, n)."""
+def build_adjacency(network, names, where="network"):
+    """Adjacency ``A[i, j]`` (i hears j) of one graph of the scenario, shape (n, n).
+
+    Parameters
+    ----------
+    network : coopsat.scenarios.schema.Graph
+    names : sequence of str
+    where : str
+        The graph's place in the scenario, for error messages.
+    """
     n = len(names)
     index = {name: k for k, name in enumerate(names)}
     kind = network.kind
@@ -77,24 +92,24 @@ def build_adjacency(network, names):
         for k, (src, dst, w) in enumerate(network.edges):
             for end in (src, dst):
                 if end not in index:
-                    raise ScenarioError(f"network.edges[{k}]: unknown spacecraft '{end}' (known: {', '.join(names)})")
+                    raise ScenarioError(f"{where}.edges[{k}]: unknown spacecraft '{end}' (known: {', '.join(names)})")
             triples.append((index[src], index[dst], w))
         try:
             return topology.adjacency_from_edges(n, triples, network.directed)
         except topology.GraphError as err:
-            raise ScenarioError(str(err)) from None
+            raise ScenarioError(str(err).replace("network", where, 1)) from None
     if kind == "adjacency":
         try:
             a = topology.validate_adjacency(network.adjacency)
         except topology.GraphError as err:
-            raise ScenarioError(str(err)) from None
+            raise ScenarioError(str(err).replace("network", where, 1)) from None
         if a.shape[0] != n:
-            raise ScenarioError(f"network.adjacency: is {a.shape[0]}×{a.shape[0]} but there are {n} spacecraft")
+            raise ScenarioError(f"{where}.adjacency: is {a.shape[0]}×{a.shape[0]} but there are {n} spacecraft")
         return a
     if kind == "star":
         hub = network.hub or names[0]
         if hub not in index:
-            raise ScenarioError(f"network.hub: unknown spacecraft '{hub}' (known: {', '.join(names)})")
+            raise ScenarioError(f"{where}.hub: unknown spacecraft '{hub}' (known: {', '.join(names)})")
         return network.weight * topology.star_adjacency(n, network.directed, hub=index[hub])
     return network.weight * topology.NAMED_GRAPHS[kind](n, directed=network.directed)
 
@@ -111,21 +126,28 @@ def _translational_state(sc, orbit):
     return np.asarray(sc.r_eci_m, dtype=float), np.asarray(sc.v_eci_m_s, dtype=float)
 
 
-def _check_graph(scenario, adjacency, names, notes):
-    """A consensus law needs a spanning tree; tracking laws converge on any graph."""
+def _check_graphs(scenario, graphs, names, notes):
+    """A consensus law needs a spanning tree in every graph; tracking laws converge on any graph."""
     ctrl = scenario.controller
     if not isinstance(ctrl, ConsensusSync) or isinstance(ctrl, ConsensusTrack) or len(names) == 1:
         return
-    if topology.spanning_tree_roots(adjacency):
-        return
-    groups = topology.describe_components(adjacency, names)
-    msg = f"network: the graph has no spanning tree, so law (3) cannot bring every spacecraft to consensus ({groups})"
-    if scenario.network.require_spanning_tree:
-        raise ScenarioError(msg + "; set network.require_spanning_tree = false to run it anyway")
-    notes.append(msg)
+    for where, adjacency in graphs:
+        if topology.spanning_tree_roots(adjacency):
+            continue
+        groups = topology.describe_components(adjacency, names)
+        msg = f"{where}: the graph has no spanning tree, so law (3) cannot bring every spacecraft to consensus ({groups})"
+        if scenario.network.require_spanning_tree:
+            raise ScenarioError(msg + "; set network.require_spanning_tree = false to run it anyway")
+        notes.append(msg)
 
 
-def _stability(scenario, inertia, adjacency, notes):
+def _stability(scenario, inertia, adjacencies, notes):
+    """Sampled-data check of the consensus law on each graph; the worst one is returned.
+
+    With a switching topology the result carries the largest spectral radius over the graphs
+    and the smallest of their stable periods (each graph's loop stable is necessary, not
+    sufficient, for the switched loop).
+    """
     ctrl = scenario.controller
     if not isinstance(ctrl, ConsensusSync) or len(inertia) == 1 and not isinstance(ctrl, ConsensusTrack):
         return None  # nothing to agree on for one spacecraft without a reference
@@ -143,12 +165,16 @@ def _stability(scenario, inertia, adjacency, notes):
                 f"controller.omega_ref_rad_s is not along a principal axis of {', '.join(off)}: steady rotation at the "
                 "reference rate needs a torque there, and the sampled-data check linearises about it regardless"
             )
-        return analyze_sampled_data(
-            inertia, adjacency, ctrl.period_s, ctrl.alpha, ctrl.beta, ctrl.k_p, ctrl.k_d, ctrl.omega_ref_rad_s
-        )
-    if not topology.spanning_tree_roots(adjacency):
-        return None  # no agreement to be stable about: the graph check has already said so
-    return analyze_sampled_data(inertia, adjacency, ctrl.period_s, ctrl.alpha, ctrl.beta)
+        gains = (ctrl.k_p, ctrl.k_d, ctrl.omega_ref_rad_s)
+    else:
+        # Without a spanning tree there is no agreement to be stable about (the graph check says so).
+        adjacencies = [a for a in adjacencies if topology.spanning_tree_roots(a)]
+        gains = ()
+    results = [analyze_sampled_data(inertia, a, ctrl.period_s, ctrl.alpha, ctrl.beta, *gains) for a in adjacencies]
+    if not results:
+        return None
+    worst = max(results, key=lambda r: r.spectral_radius)
+    return dataclasses.replace(worst, max_stable_period_s=min(r.max_stable_period_s for r in results))
 
 
 def stability_message(st, names, saturates=True):
@@ -195,10 +221,15 @@ def build(scenario):
     q0 = np.array([sc.q_bi for sc in scenario.spacecraft], dtype=float)
     q0 /= np.linalg.norm(q0, axis=1, keepdims=True)
     rv = [_translational_state(sc, scenario.orbit) for sc in scenario.spacecraft]
-    adjacency = build_adjacency(scenario.network, names)
+    graphs = [("network", build_adjacency(scenario.network, names))] + [
+        (f"network.switches[{k}]", build_adjacency(sw, names, f"network.switches[{k}]"))
+        for k, sw in enumerate(scenario.network.switches)
+    ]
+    adjacencies = [a for _, a in graphs]
     notes = []
-    _check_graph(scenario, adjacency, names, notes)
-    links = topology.links_from_adjacency(adjacency)
+    _check_graphs(scenario, graphs, names, notes)
+    links = topology.links_for_schedule(adjacencies)
+    switch_times = [0.0] + [sw.t_s for sw in scenario.network.switches]
 
     ctrl, act = scenario.controller, scenario.actuators
     period = scenario.control_period_s
@@ -250,10 +281,13 @@ def build(scenario):
     system = System(
         structure,
         *as_arrays(
-            (dt, x0, plant, links.src, links.dst, links.weight, ctrl_params, act_params)
+            (
+                dt, x0, plant, links.src, links.dst, links.weight,
+                np.array([round(t / dt) for t in switch_times], dtype=np.int64), ctrl_params, act_params,
+            )
         ),
     )
-    stability = _stability(scenario, inertia, adjacency, notes)
+    stability = _stability(scenario, inertia, adjacencies, notes)
     stability_note = None
     if stability is not None:
         stability_note = stability_message(stability, names, saturates=bool(np.isfinite(act.torque_max_nm)))
@@ -265,7 +299,9 @@ def build(scenario):
         scenario=scenario,
         system=system,
         names=names,
-        adjacency=adjacency,
+        adjacency=adjacencies[0],
+        adjacencies=adjacencies,
+        switch_times_s=switch_times,
         n_records=whole_ratio(scenario.sim.t_final_s, scenario.record_interval_s),
         record_interval_s=scenario.record_interval_s,
         stability=stability,

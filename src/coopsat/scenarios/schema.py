@@ -160,8 +160,8 @@ class Orbit(_Strict):
     r_body_m: float = Field(R_EARTH_M, gt=0, description="Central body's equatorial radius, m.")
 
 
-class Network(_Strict):
-    """``[network]``: who hears whom."""
+class Graph(_Strict):
+    """A communication graph: who hears whom (the fields shared by ``[network]`` and its switches)."""
 
     kind: Literal["none", "ring", "chain", "star", "complete", "edges", "adjacency"] = "none"
     directed: bool = Field(False, description="Named graphs and edge lists: one-way links (i hears j only).")
@@ -171,9 +171,6 @@ class Network(_Strict):
         None, description="kind = 'edges': [transmitter, receiver, weight] by spacecraft name."
     )
     adjacency: list[list[float]] | None = Field(None, description="kind = 'adjacency': A[i][j] = weight with which i hears j.")
-    require_spanning_tree: bool = Field(
-        True, description="A consensus law on a graph without a spanning tree is an error (false: a warning)."
-    )
 
     @field_validator("adjacency")
     @classmethod
@@ -200,6 +197,30 @@ class Network(_Strict):
             raise ValueError("adjacency is only read when kind = 'adjacency'")
         if self.hub is not None and self.kind != "star":
             raise ValueError("hub is only read when kind = 'star'")
+        return self
+
+
+class GraphSwitch(Graph):
+    """One ``[[network.switches]]`` entry: from ``t_s`` on, this graph replaces the previous one."""
+
+    t_s: float = Field(gt=0, description="Switch time, s: a whole multiple of the control period.")
+
+
+class Network(Graph):
+    """``[network]``: who hears whom, and when that changes."""
+
+    require_spanning_tree: bool = Field(
+        True, description="A consensus law on a graph without a spanning tree is an error (false: a warning)."
+    )
+    switches: list[GraphSwitch] = Field(
+        [], description="Later graphs, in time order ([[network.switches]]): switching topology, link failures."
+    )
+
+    @model_validator(mode="after")
+    def _increasing_switch_times(self):
+        times = [sw.t_s for sw in self.switches]
+        if any(b <= a for a, b in zip(times, times[1:])):
+            raise ValueError(f"switches: times must increase, got {times}")
         return self
 
 
@@ -317,6 +338,8 @@ class Scenario(_Strict):
                 f"sim.record_interval_s: {n_samples:.3g} samples of {len(self.spacecraft)} spacecraft is more than "
                 f"{MAX_SAMPLES:.0e} spacecraft-samples; record less often"
             )
+        for k, sw in enumerate(self.network.switches):
+            _whole_multiple(sw.t_s, period, f"network.switches[{k}].t_s", "the control period")
         if isinstance(self.actuators, PwmThrusters) and not self.actuators.min_pulse_s < period:
             raise ValueError(
                 f"actuators.min_pulse_s ({self.actuators.min_pulse_s:g} s) must be shorter than the control period "

@@ -59,27 +59,27 @@ def _engine_view(system):
     return dataclasses.replace(system, plant=p._replace(inertia_kgm2=_cm(p.inertia_kgm2), inertia_inv=_cm(p.inertia_inv)))
 
 
-# --- controllers: (t, outbox, inbox, system) -> (command (3, n), aux dict) -------------------
+# --- controllers: (t, outbox, inbox, link weights, system) -> (command (3, n), aux dict) ------
 
 
-def _no_control(t, own, inbox, system):
+def _no_control(t, own, inbox, weight, system):
     return jnp.zeros_like(own["omega"]), {}
 
 
-def _sync_control(t, own, inbox, system):
+def _sync_control(t, own, inbox, weight, system):
     p = system.controller
     u = consensus_sync_torque(
-        own["q"], own["omega"], inbox["q"], inbox["omega"], system.links_dst, system.links_weight,
+        own["q"], own["omega"], inbox["q"], inbox["omega"], system.links_dst, weight,
         p["alpha"], p["beta"], system.structure.short_way, AXIS,
     )
     return u, {}
 
 
-def _track_control(t, own, inbox, system):
+def _track_control(t, own, inbox, weight, system):
     p = system.controller
     q_ref = reference_attitude(p["q_ref0"], p["omega_ref_b"], t)
     u = consensus_track_torque(
-        own["q"], own["omega"], inbox["q"], inbox["omega"], system.links_dst, system.links_weight,
+        own["q"], own["omega"], inbox["q"], inbox["omega"], system.links_dst, weight,
         p["alpha"], p["beta"], p["k_p"], p["k_d"], q_ref, p["omega_ref_b"], system.structure.short_way, AXIS,
     )
     return u, {"q_ref": q_ref}
@@ -180,12 +180,19 @@ def _integrate_tick(x, pulse, t_in_period, system, batched):
     return x._replace(q_bi=quat_normalize(x.q_bi, AXIS))
 
 
+def _active_weights(system, tick):
+    """Link weights of the graph in force at ``tick`` (switching topology: last switch ≤ tick)."""
+    if system.links_weight.shape[0] == 1:
+        return system.links_weight[0]
+    return system.links_weight[jnp.searchsorted(system.switch_ticks, tick, side="right") - 1]
+
+
 def _command(system, x, tick):
     """Sense, deliver and control at the start of a period: returns (pulse, command, aux)."""
     t = tick * system.dt_s
     outbox = {"q": x.q_bi, "omega": x.omega_b}
     inbox = deliver_ideal(outbox, system.links_src, spacecraft_axis=-1)
-    u, aux = CONTROLLERS[system.structure.controller](t, outbox, inbox, system)
+    u, aux = CONTROLLERS[system.structure.controller](t, outbox, inbox, _active_weights(system, tick), system)
     pulse = ACTUATORS[system.structure.actuator].plan(u, system)
     return pulse, u, aux
 

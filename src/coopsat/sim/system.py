@@ -68,8 +68,11 @@ class System:
     links_src, links_dst : int arrays, (E,) or (d, n)
         Transmitter and receiver of each link: an edge list sorted by receiver, or a padded
         in-neighbour table (see :class:`~coopsat.network.topology.Links`).
-    links_weight : (E,) or (d, n)
-        Link weights ``a_ij`` (0 in padding slots).
+    links_weight : (G, E) or (G, d, n)
+        Link weights ``a_ij`` of each of the G graphs of a switching topology (0 for a link a
+        graph lacks, and in padding slots); G = 1 for a fixed graph.
+    switch_ticks : int array (G,)
+        Tick from which each graph applies (the first is 0), increasing.
     controller : dict of arrays
         Gains and references of the control law (keys depend on the law).
     actuator : dict of arrays
@@ -83,6 +86,7 @@ class System:
     links_src: jnp.ndarray
     links_dst: jnp.ndarray
     links_weight: jnp.ndarray
+    switch_ticks: jnp.ndarray
     controller: dict
     actuator: dict
 

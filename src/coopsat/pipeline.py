@@ -29,8 +29,8 @@ class RunResult:
 
     Attributes
     ----------
-    out_dir : Path or None
-        The run folder (None when nothing was written).
+    out_dir : Path
+        The run folder.
     dataset : xarray.Dataset
     metrics : dict
     comparison : list of dict
@@ -39,7 +39,7 @@ class RunResult:
         Wall time compiling and running the closed loop, s.
     """
 
-    out_dir: Path | None
+    out_dir: Path
     dataset: object
     metrics: dict
     comparison: list

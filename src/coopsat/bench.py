@@ -6,7 +6,6 @@ ideal torque actuator. One "spacecraft-step" is one spacecraft advanced by one R
 Prints numbers; asserts nothing (timings are not tests).
 """
 
-import time
 
 import numpy as np
 

@@ -35,7 +35,7 @@ from coopsat.actuators.ideal import ideal_torque_pulse
 from coopsat.actuators.pulses import pulse_mean_torque, torque_between
 from coopsat.actuators.pwm import pwm_pulse, thruster_on_time_s
 from coopsat.control.consensus import consensus_sync_torque, consensus_track_torque, reference_attitude
-from coopsat.dynamics.plant import PlantState, plant_derivative
+from coopsat.dynamics.plant import plant_derivative
 from coopsat.geometry.quaternion import quat_normalize
 from coopsat.network.delivery import deliver_ideal
 

@@ -9,34 +9,43 @@ Prints numbers; asserts nothing (timings are not tests).
 
 import numpy as np
 
-from coopsat.dynamics.plant import PlantParams, PlantState
-from coopsat.network.topology import links_from_adjacency, ring_adjacency
-from coopsat.sim.system import Structure, System, as_arrays
-
 
 def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0):
-    """A random formation of ``n`` spacecraft for the benchmark (no orbit)."""
+    """A random formation of ``n`` spacecraft for the benchmark (no orbit): free, or law (3)
+    on an undirected ring with an ideal torque actuator."""
+    import jax
+
+    from coopsat.actuators.ideal import IdealTorque
+    from coopsat.control.consensus import ConsensusLaw
+    from coopsat.control.free import NoControl
+    from coopsat.dynamics.plant import PlantParams, PlantState
+    from coopsat.network.delivery import IdealNetwork
+    from coopsat.network.topology import links_from_adjacency, ring_adjacency
+    from coopsat.sim.system import Structure, System, as_arrays
+
     rng = np.random.default_rng(seed)
     q = rng.normal(size=(n, 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     principal = rng.uniform(0.5, 1.5, size=(n, 3))  # body axes = principal axes (diagonal path)
     zeros = np.zeros((n, 3))
     links = links_from_adjacency(ring_adjacency(n) if controller != "none" and n > 1 else np.zeros((n, n)))
-    structure = Structure(
-        n_spacecraft=n, gravity="none", controller=controller, actuator="ideal-torque", short_way=False,
-        ticks_per_period=1, periods_per_record=record_ticks, substeps=1,
-    )
-    params = {"alpha": 1.0, "beta": 2.0} if controller != "none" else {}
+    structure = Structure(n_spacecraft=n, gravity="none", ticks_per_period=1, periods_per_record=record_ticks, substeps=1)
+    if controller == "none":
+        law = NoControl()
+    else:
+        law = ConsensusLaw(*as_arrays((1.0, 2.0, 0.0, 0.0, [1.0, 0, 0, 0], np.zeros(3))), track=False, short_way=False)
     return System(
         structure,
-        *as_arrays(
-            (
-                dt_s,
-                PlantState(q, rng.normal(scale=0.1, size=(n, 3)), zeros, zeros, zeros),
-                PlantParams(principal, 1.0 / principal, 0.0, 0.0, 1.0),
-                links.src, links.dst, links.weight[None], np.zeros(1, np.int64), params, {"torque_max_nm": 0.05},
-            )
-        ),
+        *as_arrays((
+            dt_s, jax.random.PRNGKey(seed),
+            PlantState(q, rng.normal(scale=0.1, size=(n, 3)), zeros, zeros, zeros),
+            PlantParams(principal, 1.0 / principal, 0.0, 0.0, 1.0, np.full(n, np.nan), 0),
+        )),
+        controller=law,
+        network=IdealNetwork(*as_arrays((links.src, links.dst, links.weight[None], np.zeros(1, np.int64)))),
+        sensors=(),
+        actuators=(IdealTorque(*as_arrays((0.05,))),),
+        disturbances=(),
     )
 
 

@@ -51,7 +51,8 @@ def _cmd_validate(args):
         print(f"warning: {note}", file=sys.stderr)
     print(
         f"ok: {scenario.name}: {len(built.names)} spacecraft, controller {scenario.controller.kind}, "
-        f"actuators {scenario.actuators.kind}, {built.n_records + 1} samples over {scenario.sim.t_final_s:g} s"
+        f"actuators {', '.join(a.kind for a in scenario.actuator_list)}, "
+        f"{built.n_records + 1} samples over {scenario.sim.t_final_s:g} s"
     )
     return 0
 

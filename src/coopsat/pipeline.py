@@ -17,10 +17,10 @@ import numpy as np
 
 import coopsat
 from coopsat.analysis.compare import compare_published, comparison_markdown
-from coopsat.analysis.metrics import design_metrics, run_metrics
-from coopsat.scenarios.build import ConsensusWarning, build, inertia_matrix
+from coopsat.analysis.metrics import run_metrics
+from coopsat.analysis.papers import explainers, paper_metrics
+from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
 from coopsat.scenarios.load import ScenarioError, load_scenario, resolved_toml
-from coopsat.scenarios.schema import ConsensusTrack
 
 
 @dataclass
@@ -55,7 +55,7 @@ def prepare(scenario):
     this run will produce.
     """
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ConsensusWarning)  # returned in built.warnings instead
+        warnings.simplefilter("ignore", DesignWarning)  # returned in built.warnings instead
         built = build(scenario)
     if scenario.published:
         known = metric_names(built)
@@ -70,21 +70,22 @@ def prepare(scenario):
 
 def metric_names(built):
     """Names of the metrics a run of ``built`` will report (from a stand-in two-sample record)."""
-    from coopsat.sim.engine import RunOutput, output_shapes
+    from coopsat.sim.engine import RunOutput, output_shapes, output_specs
     from coopsat.sim.recorder import to_dataset
 
+    specs = output_specs(built.system)
     samples = {k: np.zeros((2, *shape)) for k, shape in output_shapes(built.system).items()}
-    samples["q_bi"][..., 0] = 1.0
-    if "q_ref" in samples:
-        samples["q_ref"][..., 0] = 1.0
-    ds = to_dataset(RunOutput(np.array([0.0, 1.0]), samples, 0.0, 0.0), built.names, {})
+    for k, spec in specs.items():
+        if spec.dims == ("q_component",):
+            samples[k][..., 0] = 1.0  # unit quaternions, so that attitude metrics are defined
+    ds = to_dataset(RunOutput(np.array([0.0, 1.0]), samples, 0.0, 0.0), built.names, {}, specs)
     metrics, _ = analyse(built, ds, compare=False)
     return set(metrics)
 
 
 def simulate_built(built, progress=False):
     """Run a built scenario; returns (dataset, RunOutput)."""
-    from coopsat.sim.engine import simulate
+    from coopsat.sim.engine import output_specs, simulate
     from coopsat.sim.recorder import to_dataset
 
     scenario = built.scenario
@@ -99,25 +100,21 @@ def simulate_built(built, progress=False):
         "run_time_s": out.run_s,
         "conventions": "SI units; quaternions scalar-first, Hamilton, body to inertial",
     }
-    if built.stability_note is not None:
-        attrs["sampled_data_check"] = built.stability_note
-    return to_dataset(out, built.names, attrs), out
+    for check in built.checks.values():
+        attrs[f"check_{check.name}"] = check.note
+    return to_dataset(out, built.names, attrs, output_specs(built.system)), out
 
 
 def analyse(built, ds, compare=True):
     """Metrics and comparison rows (empty unless ``compare``) of a finished run."""
     sc = built.scenario
-    ctrl = sc.controller
-    omega_ref = ctrl.omega_ref_rad_s if isinstance(ctrl, ConsensusTrack) else None
     inertia = np.stack([inertia_matrix(s.inertia_kgm2) for s in sc.spacecraft])
     h_wheels = np.array([s.h_wheels_b_nms for s in sc.spacecraft], dtype=float)
-    metrics = {**design_metrics(sc, built.stability), **run_metrics(ds, built.names, sc.analysis, inertia, omega_ref, h_wheels)}
+    metrics = {**built.design_metrics, **run_metrics(ds, built.names, inertia, h_wheels), **paper_metrics(ds, built)}
     if not compare:
         return metrics, []
-    note = None
-    if built.stability is not None and not built.stability.stable:
-        note = built.stability_note
-    return metrics, compare_published(sc.published, metrics, note, sc.sim.t_final_s)
+    note = "; ".join(built.failed_checks) or None
+    return metrics, compare_published(sc.published, metrics, note, sc.sim.t_final_s, explainers(built))
 
 
 def _json_ready(obj):

@@ -6,12 +6,13 @@ from pathlib import Path
 import pydantic
 import pytest
 
+from coopsat.plugins import ROLES, plugins
 from coopsat.scenarios import schema
 from coopsat.scenarios.load import bundled_names, load_scenario
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scenarios.md"
 
-MODELS = [
+CORE_MODELS = [
     schema.Sim,
     schema.Elements,
     schema.SpacecraftDefaults,
@@ -20,17 +21,13 @@ MODELS = [
     schema.Graph,
     schema.GraphSwitch,
     schema.Network,
-    schema.NoController,
-    schema.ConsensusSync,
-    schema.ConsensusTrack,
-    schema.IdealTorque,
-    schema.PwmThrusters,
     schema.Analysis,
     schema.Published,
     schema.Scenario,
 ]
+PLUGIN_TABLES = [p.table for role in ROLES for p in plugins(role).values()]
 
-FIELDS = sorted({(model.__name__, field) for model in MODELS for field in model.model_fields})
+FIELDS = sorted({(model.__name__, field) for model in CORE_MODELS + PLUGIN_TABLES for field in model.model_fields})
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +44,12 @@ def test_every_schema_model_is_checked():
         and obj.__module__ == schema.__name__
         and not name.startswith("_")
     }
-    assert public == {m.__name__ for m in MODELS}, "a schema model was added or removed: update MODELS"
+    assert public == {m.__name__ for m in CORE_MODELS}, "a schema model was added or removed: update CORE_MODELS"
+
+
+@pytest.mark.parametrize("kind", sorted({p.kind for role in ROLES for p in plugins(role).values()}))
+def test_every_plugin_kind_is_documented(doc, kind):
+    assert f'kind = "{kind}"' in doc, f"plug-in kind {kind} is not documented in docs/scenarios.md"
 
 
 @pytest.mark.parametrize(("model", "field"), FIELDS, ids=[f"{m}.{f}" for m, f in FIELDS])

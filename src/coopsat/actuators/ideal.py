@@ -4,7 +4,8 @@ from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 
-from coopsat.actuators.pulses import Pulse
+from coopsat._parts import part
+from coopsat.actuators.pulses import IMPULSE_OUTPUTS, Pulse, torque_impulse_increments
 
 
 def ideal_torque_pulse(command_nm, period_s, torque_max_nm):
@@ -23,3 +24,35 @@ def ideal_torque_pulse(command_nm, period_s, torque_max_nm):
     """
     level = jnp.clip(command_nm, -torque_max_nm, torque_max_nm)
     return Pulse(level, jnp.full_like(level, period_s))
+
+
+@part(static=("command",))
+class IdealTorque:
+    """Torque actuator part: the commanded body torque, saturated per axis, held over the period.
+
+    Attributes
+    ----------
+    torque_max_nm : scalar
+        Saturation per body axis, N·m (``inf``: none).
+    command : str
+        Static: the controller command it executes.
+    """
+
+    torque_max_nm: jnp.ndarray
+    command: str = "torque_b"
+
+    channel = "torque_b"
+    pulsed = False
+    mean_output = ("torque", "angular_impulse")
+
+    def init(self, n):
+        return ()
+
+    def plan(self, command, x, state, period_s, key):
+        return ideal_torque_pulse(command, period_s, self.torque_max_nm), state
+
+    def account(self, pulse):
+        return torque_impulse_increments(pulse)
+
+    def output_specs(self):
+        return dict(IMPULSE_OUTPUTS)

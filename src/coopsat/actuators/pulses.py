@@ -13,6 +13,8 @@ from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 
+from coopsat._parts import OutputSpec
+
 
 class Pulse(NamedTuple):
     """Torque pulse of one control period.
@@ -51,3 +53,27 @@ def torque_between(pulse, t_start_s, t_end_s):
     """
     mid = 0.5 * (t_start_s + t_end_s)
     return jnp.where(pulse.t_off_s > mid, pulse.level_nm, 0.0)
+
+
+IMPULSE_OUTPUTS = {
+    "angular_impulse": OutputSpec(
+        ("component",), "N m s", "body",
+        "cumulative signed angular impulse of the actuators per body axis, from t = 0 to the sample",
+    ),
+    "impulse": OutputSpec(
+        ("component",), "N m s", "body",
+        "cumulative absolute angular impulse per body axis (actuator effort), from t = 0 to the sample",
+    ),
+    "torque": OutputSpec(
+        ("component",), "N m", "body",
+        "mean torque actually applied over the record interval starting at the sample "
+        "(last sample: over the control period that would follow)",
+    ),
+}
+"""Recorded outputs of every torque actuator: its impulse counters and mean applied torque."""
+
+
+def torque_impulse_increments(pulse):
+    """Per-period increments of a torque pulse's counters: signed and absolute angular impulse,
+    N·m·s, (3, n) each."""
+    return {"angular_impulse": pulse.level_nm * pulse.t_off_s, "impulse": jnp.abs(pulse.level_nm) * pulse.t_off_s}

@@ -13,7 +13,8 @@ from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 
-from coopsat.actuators.pulses import Pulse
+from coopsat._parts import OutputSpec, part
+from coopsat.actuators.pulses import IMPULSE_OUTPUTS, Pulse, torque_impulse_increments
 
 THRUSTER_NAMES = ("+x", "-x", "+y", "-y", "+z", "-z")
 """Thruster order of the ``thruster`` dimension: the pair of each body axis, + first."""
@@ -54,3 +55,50 @@ def thruster_on_time_s(pulse, axis=-1):
     if axis == 0:
         return jnp.stack([plus, minus], axis=1).reshape(6, *plus.shape[1:])
     return jnp.stack([plus, minus], axis=-1).reshape(*plus.shape[:-1], 6)
+
+
+@part(static=("command",))
+class PwmThrusters:
+    """PWM thruster part: a ± pair per body axis, eq. (10), switching inside the period.
+
+    Attributes
+    ----------
+    torque_max_nm : scalar
+        Torque of one thruster pair T_max, N·m.
+    min_pulse_s : scalar
+        Minimum pulse τ, s.
+    command : str
+        Static: the controller command it executes.
+    """
+
+    torque_max_nm: jnp.ndarray
+    min_pulse_s: jnp.ndarray
+    command: str = "torque_b"
+
+    channel = "torque_b"
+    pulsed = True
+    mean_output = ("torque", "angular_impulse")
+
+    def init(self, n):
+        return ()
+
+    def plan(self, command, x, state, period_s, key):
+        return pwm_pulse(command, period_s, self.torque_max_nm, self.min_pulse_s), state
+
+    def account(self, pulse):
+        """Impulse counters, and per thruster the on-time and whether it fired this period."""
+        on = thruster_on_time_s(pulse, 0)
+        return {**torque_impulse_increments(pulse), "thruster_on_time": on, "thruster_firings": (on > 0.0).astype(jnp.int64)}
+
+    def output_specs(self):
+        thrusters = (("thruster", THRUSTER_NAMES),)
+        return {
+            **IMPULSE_OUTPUTS,
+            "thruster_on_time": OutputSpec(
+                ("thruster",), "s", "", "cumulative on-time of each thruster, from t = 0 to the sample", coords=thrusters
+            ),
+            "thruster_firings": OutputSpec(
+                ("thruster",), "1", "", "cumulative number of firings (control periods with a pulse) of each thruster",
+                coords=thrusters,
+            ),
+        }

@@ -2,9 +2,9 @@
 
 Each ``[[published]]`` entry of a scenario becomes one row: quantity, unit, published value,
 ours, verdict ("agrees" or "differs") and a reason. A difference is a finding, not a failure:
-the reason says what the tool knows about it (an unstable sampled-data loop, a quantity that
-never settled within the run, a conserved quantity that forbids the published outcome, or the
-scenario's own note on what differs from the paper's set-up).
+the reason says what the tool knows about it (a failed design-time check such as an unstable
+sampled-data loop, a quantity that never settled within the run, the paper module's
+explanations, or the scenario's own note on what differs from the paper's set-up).
 """
 
 import math
@@ -29,51 +29,9 @@ def _tolerance_text(entry):
     return f"agreement band ±{tol:g} {entry.unit}"
 
 
-def _rest_explanation(quantity, metrics):
-    """Why law (3) need not end at rest: it damps only rate differences."""
-    h0, hf = metrics.get("angular_momentum_initial_nms"), metrics.get("angular_momentum_final_nms")
-    if h0 is None or hf is None:
-        return None
-    return (
-        "law (3) damps only rate differences: once attitudes and rates agree its torque is zero whatever the "
-        "common rate, so a common spin about a shared principal axis is an equilibrium and nothing brings the "
-        f"formation to rest (inertial angular momentum {h0:.3g} N·m·s at the start, {hf:.3g} N·m·s at the end)"
-    )
-
-
-def _deadband_explanation(quantity, metrics):
-    """A PWM minimum pulse leaves small commands unexecuted: errors stall instead of vanishing."""
-    deadband = metrics.get("pwm_deadband_torque_nm")
-    if deadband is None or metrics.get(quantity) is not None or metrics.get("spectral_radius", 0.0) >= 1.0:
-        return None  # an unstable loop is explanation enough; the dead band is not the cause
-    spread = metrics.get("final_attitude_spread_deg")
-    tail = f"; the attitude spread ends at {spread:.3g} deg" if spread is not None else ""
-    return (
-        f"PWM commands below T_max·τ/T = {deadband:.3g} N·m are not executed (minimum pulse), so the loop stops "
-        f"correcting small errors{tail}"
-    )
-
-
-def _spin_down_explanation(quantity, metrics):
-    """The thrusters' authority bounds how fast a spin can be removed."""
-    bound = metrics.get(quantity.replace("_rate_settle_time_s", "_min_spin_down_time_s"))
-    if bound is None:
-        return None
-    return f"at full thrust the spin cannot be removed in less than {bound:.3g} s (I·|Δω|/T_max per axis)"
-
-
-EXPLAINERS = {
-    "final_rate_max_rad_s": _rest_explanation,
-    "sync_time_s": _deadband_explanation,
-    "track_time_s": _deadband_explanation,
-    "_rate_settle_time_s": _spin_down_explanation,
-}
-"""Explanations of a difference, by metric name or name suffix: (quantity, metrics) -> str or None."""
-
-
-def _explain(quantity, metrics):
+def _explain(quantity, metrics, explainers):
     sentences = []
-    for key, explainer in EXPLAINERS.items():
+    for key, explainer in explainers.items():
         if quantity == key or (key.startswith("_") and quantity.endswith(key)):
             sentence = explainer(quantity, metrics)
             if sentence:
@@ -81,7 +39,7 @@ def _explain(quantity, metrics):
     return sentences
 
 
-def compare_published(published, metrics, stability_note=None, t_final_s=None):
+def compare_published(published, metrics, design_note=None, t_final_s=None, explainers=None):
     """Rows of the comparison table.
 
     Parameters
@@ -89,10 +47,14 @@ def compare_published(published, metrics, stability_note=None, t_final_s=None):
     published : sequence of coopsat.scenarios.schema.Published
     metrics : dict
         From :func:`coopsat.analysis.metrics.run_metrics` (plus design-time entries).
-    stability_note : str, optional
-        One line from the sampled-data check when the loop is unstable.
+    design_note : str, optional
+        The failed design-time checks in one line (e.g. an unstable sampled-data loop).
     t_final_s : float, optional
         Run length, quoted when a quantity never settled.
+    explainers : dict, optional
+        Explanations of a difference by metric name or name suffix (``"_x_s"`` matches every
+        name ending so): ``(quantity, metrics) -> str or None``; from the run's paper modules
+        (:func:`coopsat.analysis.papers.explainers`).
 
     Returns
     -------
@@ -114,10 +76,10 @@ def compare_published(published, metrics, stability_note=None, t_final_s=None):
             reasons.append(f"never settled within the run ({t_final_s:g} s)" if t_final_s else "never settled")
         elif not agrees:
             reasons.append(f"ours {ours:.4g} {entry.unit} is outside the {_tolerance_text(entry)}")
-        if stability_note:
-            reasons.append(stability_note if not agrees else "agrees, although " + stability_note)
+        if design_note:
+            reasons.append(design_note if not agrees else "agrees, although " + design_note)
         if not agrees:
-            reasons.extend(_explain(entry.quantity, metrics))
+            reasons.extend(_explain(entry.quantity, metrics, explainers or {}))
             if entry.note:
                 reasons.append(entry.note)
         rows.append(

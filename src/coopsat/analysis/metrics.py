@@ -115,8 +115,11 @@ def inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms=0.0):
     return np.asarray(quat_rotate(q, h_b)).sum(axis=1)
 
 
-def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None, h_wheels_b_nms=0.0):
-    """All metrics of a run as a flat dict of named numbers (unit at the end of each name).
+def run_metrics(ds, names, inertia_kgm2, h_wheels_b_nms=0.0):
+    """Metrics every run has, as a flat dict of named numbers (unit at the end of each name).
+
+    A paper's own metrics (synchronisation and tracking times, …) come from its analysis
+    module (:mod:`coopsat.analysis.papers`).
 
     Parameters
     ----------
@@ -124,42 +127,25 @@ def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None, h_wheel
         From :func:`coopsat.sim.recorder.to_dataset` (single run).
     names : sequence of str
         Spacecraft names.
-    analysis : coopsat.scenarios.schema.Analysis
-        Thresholds.
     inertia_kgm2 : ndarray, shape (n, 3, 3)
-    omega_ref_rad_s : array_like (3,), optional
-        Reference rate of a tracking run; with ``ds.q_ref`` it enables the tracking metrics.
-    h_wheels_b_nms : ndarray, shape (n, 3), optional
+    h_wheels_b_nms : ndarray, shape (n, 3) or (T, n, 3), optional
         Wheel momentum of each spacecraft (in the formation's angular momentum).
 
     Returns
     -------
     dict of str -> float, int or None
+        Final largest rate, the formation's inertial angular momentum at both ends, and per
+        spacecraft every actuator counter the run recorded (impulse, thruster on-time and
+        firings).
     """
-    t = ds["time"].values
     q = ds["q"].values
     omega = ds["omega"].values
-    att = pairwise_attitude_error_deg(q)
-    rate = pairwise_rate_difference_rad_s(omega)
-    synced = (att < analysis.sync_attitude_deg) & (rate < analysis.sync_rate_rad_s)
-    h = inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms)
+    h = inertial_angular_momentum_nms(q, omega, inertia_kgm2, ds["h_wheels"].values if "h_wheels" in ds else h_wheels_b_nms)
     m = {
-        "sync_time_s": settle_time_s(t, synced, analysis.settle_hold_s),
-        "final_attitude_spread_deg": float(att[-1]),
-        "final_rate_spread_rad_s": float(rate[-1]),
         "final_rate_max_rad_s": float(np.linalg.norm(omega[-1], axis=-1).max()),
         "angular_momentum_initial_nms": float(np.linalg.norm(h[0])),
         "angular_momentum_final_nms": float(np.linalg.norm(h[-1])),
     }
-    if "q_ref" in ds and omega_ref_rad_s is not None:
-        err_deg = quat_angle_between_deg(q, ds["q_ref"].values[:, None, :])  # (T, n)
-        rate_err = np.linalg.norm(omega - np.asarray(omega_ref_rad_s), axis=-1)  # (T, n)
-        tracking = (err_deg < analysis.sync_attitude_deg) & (rate_err < analysis.sync_rate_rad_s)
-        m["track_time_s"] = settle_time_s(t, tracking.all(axis=1), analysis.settle_hold_s)
-        m["final_track_error_deg"] = float(err_deg[-1].max())
-        m["final_track_rate_error_rad_s"] = float(rate_err[-1].max())
-        for name, ts in zip(names, settle_time_s(t, rate_err < analysis.sync_rate_rad_s, analysis.settle_hold_s)):
-            m[f"{name}_rate_settle_time_s"] = ts
     if "impulse" in ds:
         impulse = ds["impulse"].values[-1].sum(axis=-1)
         for name, value in zip(names, impulse):
@@ -170,39 +156,4 @@ def run_metrics(ds, names, analysis, inertia_kgm2, omega_ref_rad_s=None, h_wheel
             m[f"{name}_on_time_s"] = float(value)
         for name, value in zip(names, ds["thruster_firings"].values[-1].sum(axis=-1)):
             m[f"{name}_firings"] = int(value)
-    return m
-
-
-def design_metrics(scenario, stability):
-    """Numbers known before the run: sampled-data check, PWM dead band, spin-down bounds.
-
-    Parameters
-    ----------
-    scenario : coopsat.scenarios.schema.Scenario
-    stability : coopsat.design.sampled_data.SampledDataStability or None
-
-    Returns
-    -------
-    dict of str -> float
-        ``<name>_min_spin_down_time_s`` is the largest over body axes of
-        ``|(I (ω(0) − ω_r))_k| / T_max``: the time the axis's thrusters need, at full thrust, to
-        remove the initial excess angular momentum (gyroscopic coupling neglected).
-    """
-    from coopsat.scenarios.build import inertia_matrix
-    from coopsat.scenarios.schema import ConsensusTrack, PwmThrusters
-
-    act, ctrl = scenario.actuators, scenario.controller
-    m = {"control_period_s": scenario.control_period_s}
-    if isinstance(act, PwmThrusters):
-        m["pwm_deadband_torque_nm"] = act.torque_max_nm * act.min_pulse_s / scenario.control_period_s
-    if np.isfinite(act.torque_max_nm) and isinstance(ctrl, ConsensusTrack):
-        for s in scenario.spacecraft:
-            h_excess = inertia_matrix(s.inertia_kgm2) @ (np.asarray(s.omega_b_rad_s) - np.asarray(ctrl.omega_ref_rad_s))
-            m[f"{s.name}_min_spin_down_time_s"] = float(np.abs(h_excess).max() / act.torque_max_nm)
-    if stability is not None:
-        m.update(
-            spectral_radius=stability.spectral_radius,
-            max_stable_period_s=stability.max_stable_period_s,
-            continuous_max_real_1_s=stability.continuous_max_real,
-        )
     return m

@@ -10,6 +10,7 @@ from coopsat import _jax  # noqa: F401
 import jax
 import jax.numpy as jnp
 
+from coopsat._parts import OutputSpec, part
 from coopsat.geometry.quaternion import quat_error, quat_exp_rate, quat_multiply, quat_positive, quat_vector
 
 
@@ -132,3 +133,62 @@ def consensus_track_torque(
         q_ref, omega_ref_b = q_ref[:, None], omega_ref_b[:, None]
     e_r = _vec_error(q_own, q_ref, short_way, axis)
     return u - k_p * e_r - k_d * (omega_own - omega_ref_b)
+
+
+_TORQUE_COMMAND = OutputSpec(("component",), "N m", "body", "torque commanded by the control law at the sample")
+
+
+@part(static=("track", "short_way"))
+class ConsensusLaw:
+    """Flight software of laws (3) and (4): stateless, sees its own attitude and rate and the
+    attitudes and rates it hears.
+
+    Attributes
+    ----------
+    alpha, beta : scalar
+        α (N·m) and β (N·m·s/rad).
+    k_p, k_d : scalar
+        K and D of the tracking law (unused by law (3)).
+    q_ref0 : (4,)
+        Reference attitude at t = 0 (tracking).
+    omega_ref_b : (3,)
+        Reference body rate, rad/s (tracking).
+    track : bool
+        Static: law (4) rather than law (3).
+    short_way : bool
+        Static: error quaternions on the ``q0 ≥ 0`` hemisphere.
+    """
+
+    alpha: jnp.ndarray
+    beta: jnp.ndarray
+    k_p: jnp.ndarray
+    k_d: jnp.ndarray
+    q_ref0: jnp.ndarray
+    omega_ref_b: jnp.ndarray
+    track: bool
+    short_way: bool
+
+    commands = ("torque_b",)
+
+    def init(self, n):
+        return ()
+
+    def outbox(self, y, state):
+        """Each spacecraft broadcasts its measured attitude and rate."""
+        return {"q": y["q"], "omega": y["omega"]}
+
+    def step(self, t, y, inbox, state, key):
+        """Body torque command ``torque_b`` (3, n); records it, and ``q_ref`` (4,) when tracking."""
+        args = (y["q"], y["omega"], inbox.msg["q"], inbox.msg["omega"], inbox.dst, inbox.weight, self.alpha, self.beta)
+        if not self.track:
+            u = consensus_sync_torque(*args, self.short_way, 0)
+            return {"torque_b": u}, state, {"torque_command": u}
+        q_ref = reference_attitude(self.q_ref0, self.omega_ref_b, t)
+        u = consensus_track_torque(*args, self.k_p, self.k_d, q_ref, self.omega_ref_b, self.short_way, 0)
+        return {"torque_b": u}, state, {"torque_command": u, "q_ref": q_ref}
+
+    def output_specs(self):
+        specs = {"torque_command": _TORQUE_COMMAND}
+        if self.track:
+            specs["q_ref"] = OutputSpec(("q_component",), "1", "", "reference attitude quaternion, scalar first", False)
+        return specs

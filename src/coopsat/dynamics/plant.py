@@ -14,7 +14,7 @@ import jax.numpy as jnp
 
 from coopsat.dynamics.rigid_body import omega_dot_b
 from coopsat.dynamics.translational import j2_accel, two_body_accel
-from coopsat.geometry.quaternion import quat_kinematics
+from coopsat.geometry.quaternion import quat_kinematics, quat_rotate
 
 
 class PlantState(NamedTuple):
@@ -51,6 +51,11 @@ class PlantParams(NamedTuple):
         every spacecraft's inertia is diagonal (the cheaper path in the compiled loop).
     mu_m3_s2, j2, r_body_m : scalar
         Central body's gravitational parameter, J2 and equatorial radius.
+    mass_kg : (n,)
+        Spacecraft masses, kg (NaN where no force acts, so a forgotten mass cannot pass
+        silently).
+    chief : int scalar
+        Index of the spacecraft whose LVLH frame LVLH-axis forces refer to.
     """
 
     inertia_kgm2: jnp.ndarray
@@ -58,16 +63,30 @@ class PlantParams(NamedTuple):
     mu_m3_s2: jnp.ndarray
     j2: jnp.ndarray
     r_body_m: jnp.ndarray
+    mass_kg: jnp.ndarray
+    chief: jnp.ndarray
 
 
-def plant_derivative(x, torque_b_nm, params, gravity, axis=-1):
+WRENCH_CHANNELS = ("torque_b", "wheel_torque_b", "force_eci", "force_b")
+"""What actuators and disturbances may act through, each (3, n) (component-major in the loop):
+
+* ``torque_b`` — external torque on the body (thrusters, magnetorquers, environment), N·m;
+* ``wheel_torque_b`` — rate of change of the wheels' momentum, body components, N·m (the
+  body feels its reaction);
+* ``force_eci`` — force in ECI components, N;
+* ``force_b`` — force in body components (body-fixed thrusters), N.
+"""
+
+
+def plant_derivative(x, wrench, params, gravity, axis=-1):
     """Time derivative of :class:`PlantState`.
 
     Parameters
     ----------
     x : PlantState
-    torque_b_nm : array, shape (n, 3)
-        Torque acting on the bodies, N·m (actuators plus disturbances).
+    wrench : dict of str -> array, each (n, 3)
+        What acts on the bodies (actuators plus disturbances), by channel of
+        :data:`WRENCH_CHANNELS`; an absent channel is zero (static: it costs nothing).
     params : PlantParams
     gravity : {"none", "two-body", "j2"}
         Static: "none" freezes position and velocity.
@@ -77,11 +96,24 @@ def plant_derivative(x, torque_b_nm, params, gravity, axis=-1):
     Returns
     -------
     PlantState
-        Derivatives; ``h_wheels_b`` is constant until wheels are actuated.
+        Derivatives.
+
+    Notes
+    -----
+    ``I ω̇ + ω × (I ω + h_w) = τ − ḣ_w`` (SPEC §0): a wheel's motor torque spins the wheel
+    up by ``ḣ_w`` and the body down by the same amount, so with no external torque the total
+    ``I ω + h_w`` is conserved in inertial space. ``m r̈ = m g(r) + F``.
     """
-    dq = quat_kinematics(x.q_bi, x.omega_b, axis)
-    dw = omega_dot_b(x.omega_b, torque_b_nm, params.inertia_kgm2, params.inertia_inv, x.h_wheels_b, axis)
+    unknown = set(wrench) - set(WRENCH_CHANNELS)
+    if unknown:
+        raise KeyError(f"unknown wrench channels {sorted(unknown)} (known: {', '.join(WRENCH_CHANNELS)})")
     zeros3 = jnp.zeros_like(x.omega_b)
+    torque = wrench.get("torque_b", zeros3)
+    dh = wrench.get("wheel_torque_b", zeros3)
+    if "wheel_torque_b" in wrench:
+        torque = torque - dh
+    dq = quat_kinematics(x.q_bi, x.omega_b, axis)
+    dw = omega_dot_b(x.omega_b, torque, params.inertia_kgm2, params.inertia_inv, x.h_wheels_b, axis)
     if gravity == "none":
         dr, dv = zeros3, zeros3
     else:
@@ -89,4 +121,9 @@ def plant_derivative(x, torque_b_nm, params, gravity, axis=-1):
         dv = two_body_accel(x.r_eci, params.mu_m3_s2, axis)
         if gravity == "j2":
             dv = dv + j2_accel(x.r_eci, params.mu_m3_s2, params.j2, params.r_body_m, axis)
-    return PlantState(dq, dw, zeros3, dr, dv)
+        force = wrench.get("force_eci", zeros3)
+        if "force_b" in wrench:
+            force = force + quat_rotate(x.q_bi, wrench["force_b"], axis)
+        if "force_eci" in wrench or "force_b" in wrench:
+            dv = dv + force / params.mass_kg
+    return PlantState(dq, dw, dh, dr, dv)

@@ -7,10 +7,14 @@ multi-hop delays (ring buffers of past outboxes indexed by tick), drop-outs and 
 schedules enter; with an ideal network the message is the transmitter's current outbox.
 """
 
+from typing import NamedTuple
+
 from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp
+
+from coopsat._parts import part
 
 
 def deliver_ideal(outbox, src, spacecraft_axis=0):
@@ -30,3 +34,61 @@ def deliver_ideal(outbox, src, spacecraft_axis=0):
         Edges in place of spacecraft: ``(E, k)`` or ``(k, E)``.
     """
     return jax.tree_util.tree_map(lambda a: jnp.take(a, src, axis=spacecraft_axis), outbox)
+
+
+class Inbox(NamedTuple):
+    """What the flight software of every spacecraft receives in one control period.
+
+    Attributes
+    ----------
+    msg : dict of arrays
+        Per link, the transmitter's message as delivered: ``(k, E)`` for an edge list, or
+        ``(k, d, n)`` for a padded in-neighbour table (component-major).
+    weight : (E,) or (d, n)
+        ``a_ij`` of each link now; 0 for a link that is absent from the graph in force, failed,
+        or (with ``on_loss = "drop"``) whose message was lost.
+    dst : int (E,) or (d, n)
+        Receiver of each link (for sums over a receiver's links).
+    """
+
+    msg: dict
+    weight: jnp.ndarray
+    dst: jnp.ndarray
+
+
+def active_row(switch_ticks, tick):
+    """Index of the topology epoch in force at ``tick`` (last switch ≤ tick); 0 for one epoch."""
+    if switch_ticks.shape[0] == 1:
+        return 0
+    return jnp.searchsorted(switch_ticks, tick, side="right") - 1
+
+
+@part()
+class IdealNetwork:
+    """Network part without delay or loss: each link carries its transmitter's current message.
+
+    Attributes
+    ----------
+    src, dst : int (E,) or (d, n)
+        Links (:class:`~coopsat.network.topology.Links`; the union over topology epochs).
+    weight : (G, E) or (G, d, n)
+        Link weights of each of the G epochs of a switching topology.
+    switch_ticks : int (G,)
+        First tick of each epoch (the first is 0).
+    """
+
+    src: jnp.ndarray
+    dst: jnp.ndarray
+    weight: jnp.ndarray
+    switch_ticks: jnp.ndarray
+
+    def init(self, outbox0):
+        return ()
+
+    def deliver(self, tick, outbox, state, key):
+        """Inbox of this period; the outbox is component-major ``(k, n)``."""
+        msg = deliver_ideal(outbox, self.src, spacecraft_axis=-1)
+        return Inbox(msg, self.weight[active_row(self.switch_ticks, tick)], self.dst), state
+
+    def output_specs(self):
+        return {}

@@ -1,11 +1,11 @@
 """Turn a validated scenario into a compiled-loop :class:`~coopsat.sim.system.System`.
 
-Design-time work happens here: degrees become radians, the graph becomes edge arrays and is
-checked for a spanning tree, orbital elements become ECI states, and the sampled-data loop of
-a consensus law is linearised and its stability reported (:mod:`coopsat.design.sampled_data`).
+Design-time work happens here: degrees become radians, graphs become adjacency matrices,
+orbital elements become ECI states, and every plug-in of the scenario (controller, network
+model, sensors, actuators, disturbances) builds its in-loop part and runs its design-time
+checks (:mod:`coopsat.plugins`). This module never names a kind.
 """
 
-import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
@@ -13,18 +13,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from coopsat.astro.kepler import elements_to_rv
-from coopsat.design.sampled_data import SampledDataStability, analyze_sampled_data
 from coopsat.network import topology
+from coopsat.plugins import BuildContext, DesignCheck, DesignError, plugin_for
 from coopsat.scenarios.load import ScenarioError
-from coopsat.scenarios.schema import ConsensusSync, ConsensusTrack, PwmThrusters, Scenario, whole_ratio
+from coopsat.scenarios.schema import Scenario, whole_ratio
 
 
-MAX_CHECKED_SPACECRAFT = 60
-"""Largest formation whose sampled-data loop is checked before a run (dense 6n-state model)."""
-
-
-class ConsensusWarning(UserWarning):
-    """A consensus run that will not do what the law promises (unstable sampling, bad graph)."""
+class DesignWarning(UserWarning):
+    """A run that will not do what its design promises (unstable sampling, a graph that cannot
+    agree, …): issued before the simulation."""
 
 
 @dataclass(frozen=True)
@@ -46,12 +43,12 @@ class Built:
     n_records : int
         Record intervals in the run (``n_records + 1`` samples).
     record_interval_s : float
-    stability : SampledDataStability or None
-        Sampled-data check of a consensus law; None without one.
-    stability_note : str or None
-        The check in one line (also a warning when the loop is unstable).
+    checks : dict of str -> coopsat.plugins.DesignCheck
+        The plug-ins' design-time checks, by name.
+    plugins : list of coopsat.plugins.Plugin
+        The plug-ins of this run (controller, network, sensors, actuators, disturbances).
     warnings : list of str
-        Design-time warnings, also issued as :class:`ConsensusWarning`.
+        Design-time warnings (failed checks), also issued as :class:`DesignWarning`.
     """
 
     scenario: Scenario
@@ -62,9 +59,22 @@ class Built:
     switch_times_s: list
     n_records: int
     record_interval_s: float
-    stability: SampledDataStability | None
-    stability_note: str | None
+    checks: dict
+    plugins: list
     warnings: list
+
+    @property
+    def design_metrics(self):
+        """Numbers known before the run, from every check (control period included)."""
+        m = {"control_period_s": self.scenario.control_period_s}
+        for check in self.checks.values():
+            m.update(check.metrics)
+        return m
+
+    @property
+    def failed_checks(self):
+        """Notes of the checks that failed (the run will not do what its design promises)."""
+        return [c.note for c in self.checks.values() if not c.ok]
 
 
 def inertia_matrix(inertia):
@@ -126,81 +136,35 @@ def _translational_state(sc, orbit):
     return np.asarray(sc.r_eci_m, dtype=float), np.asarray(sc.v_eci_m_s, dtype=float)
 
 
-def _check_graphs(scenario, graphs, names, notes):
-    """A consensus law needs a spanning tree in every graph; tracking laws converge on any graph."""
-    ctrl = scenario.controller
-    if not isinstance(ctrl, ConsensusSync) or isinstance(ctrl, ConsensusTrack) or len(names) == 1:
-        return
-    for where, adjacency in graphs:
-        if topology.spanning_tree_roots(adjacency):
-            continue
-        groups = topology.describe_components(adjacency, names)
-        msg = f"{where}: the graph has no spanning tree, so law (3) cannot bring every spacecraft to consensus ({groups})"
-        if scenario.network.require_spanning_tree:
-            raise ScenarioError(msg + "; set network.require_spanning_tree = false to run it anyway")
-        notes.append(msg)
+def _scenario_tables(scenario):
+    """(role, place in the file, table) of every plug-in table of the scenario."""
+    acts = scenario.actuator_list
+    act_places = ["actuators"] if not isinstance(scenario.actuators, list) else [f"actuators[{k}]" for k in range(len(acts))]
+    return [
+        ("controller", "controller", scenario.controller),
+        ("network", "network.delivery", scenario.network.delivery),
+        *[("sensor", f"sensors[{k}]", t) for k, t in enumerate(scenario.sensors)],
+        *[("actuator", place, t) for place, t in zip(act_places, acts)],
+        *[("disturbance", f"disturbances[{k}]", t) for k, t in enumerate(scenario.disturbances)],
+    ]
 
 
-def _stability(scenario, inertia, adjacencies, notes):
-    """Sampled-data check of the consensus law on each graph; the worst one is returned.
+def _checks(results):
+    """Normalise a check's return value (None, one DesignCheck, or a list) to a list."""
+    if results is None:
+        return []
+    return [results] if isinstance(results, DesignCheck) else list(results)
 
-    With a switching topology the result carries the largest spectral radius over the graphs
-    and the smallest of their stable periods (each graph's loop stable is necessary, not
-    sufficient, for the switched loop).
-    """
-    ctrl = scenario.controller
-    if not isinstance(ctrl, ConsensusSync) or len(inertia) == 1 and not isinstance(ctrl, ConsensusTrack):
-        return None  # nothing to agree on for one spacecraft without a reference
-    if len(inertia) > MAX_CHECKED_SPACECRAFT:
-        notes.append(
-            f"sampled-data check skipped: {len(inertia)} spacecraft is more than {MAX_CHECKED_SPACECRAFT} "
-            "(its cost grows as n³)"
-        )
-        return None
-    if isinstance(ctrl, ConsensusTrack):
-        w_r = np.asarray(ctrl.omega_ref_rad_s)
-        off = [s.name for s, i in zip(scenario.spacecraft, inertia) if np.linalg.norm(np.cross(w_r, i @ w_r)) > 1e-12 * (1 + np.linalg.norm(i @ w_r))]
-        if off:
-            notes.append(
-                f"controller.omega_ref_rad_s is not along a principal axis of {', '.join(off)}: steady rotation at the "
-                "reference rate needs a torque there, and the sampled-data check linearises about it regardless"
+
+def _check_commands(controller, actuators, places):
+    """Every actuator executes a command its controller issues (a controller that commands
+    nothing leaves its actuators at rest)."""
+    issued = getattr(controller, "commands", ())
+    for act, place in zip(actuators, places):
+        if issued and act.command not in issued:
+            raise ScenarioError(
+                f"{place}: executes the command '{act.command}' but the controller issues {', '.join(issued)}"
             )
-        gains = (ctrl.k_p, ctrl.k_d, ctrl.omega_ref_rad_s)
-    else:
-        # Without a spanning tree there is no agreement to be stable about (the graph check says so).
-        adjacencies = [a for a in adjacencies if topology.spanning_tree_roots(a)]
-        gains = ()
-    results = [analyze_sampled_data(inertia, a, ctrl.period_s, ctrl.alpha, ctrl.beta, *gains) for a in adjacencies]
-    if not results:
-        return None
-    worst = max(results, key=lambda r: r.spectral_radius)
-    return dataclasses.replace(worst, max_stable_period_s=min(r.max_stable_period_s for r in results))
-
-
-def stability_message(st, names, saturates=True):
-    """One line on the sampled-data check, naming the spacecraft and axis that limit it.
-
-    Parameters
-    ----------
-    st : SampledDataStability
-    names : sequence of str
-    saturates : bool
-        The actuator saturates (then an unstable loop settles into a limit cycle; without
-        saturation it diverges).
-    """
-    sc, axis = st.dominant
-    where = f"{names[sc]} {'xyz'[axis]} axis"
-    if st.stable:
-        return (
-            f"sampled-data loop stable at T = {st.period_s:g} s: spectral radius {st.spectral_radius:.4f} "
-            f"(largest stable period {st.max_stable_period_s:.4g} s, slowest mode on {where})"
-        )
-    return (
-        f"sampled-data loop UNSTABLE at T = {st.period_s:g} s: one-period map has spectral radius "
-        f"{st.spectral_radius:.3g} > 1 (largest stable period {st.max_stable_period_s:.4g} s; the unstable mode "
-        f"lives on {where}); "
-        + ("expect a limit cycle bounded only by actuator saturation" if saturates else "expect divergence (no saturation)")
-    )
 
 
 def build(scenario):
@@ -209,9 +173,12 @@ def build(scenario):
     Raises
     ------
     ScenarioError
-        On a graph that references unknown spacecraft, has no spanning tree for a consensus
-        law, or another inconsistency that needs more than one field to see.
+        On a graph that references unknown spacecraft, a plug-in that cannot be built as
+        configured (a graph without a spanning tree for law (3), a delay that is not a whole
+        number of periods, …), or another inconsistency that needs more than one table to see.
     """
+    import jax
+
     from coopsat.dynamics.plant import PlantParams, PlantState
     from coopsat.sim.system import Structure, System, as_arrays
 
@@ -221,40 +188,42 @@ def build(scenario):
     q0 = np.array([sc.q_bi for sc in scenario.spacecraft], dtype=float)
     q0 /= np.linalg.norm(q0, axis=1, keepdims=True)
     rv = [_translational_state(sc, scenario.orbit) for sc in scenario.spacecraft]
-    graphs = [("network", build_adjacency(scenario.network, names))] + [
-        (f"network.switches[{k}]", build_adjacency(sw, names, f"network.switches[{k}]"))
-        for k, sw in enumerate(scenario.network.switches)
-    ]
-    adjacencies = [a for _, a in graphs]
-    notes = []
-    _check_graphs(scenario, graphs, names, notes)
-    links = topology.links_for_schedule(adjacencies)
+    places = ["network"] + [f"network.switches[{k}]" for k in range(len(scenario.network.switches))]
+    graphs = [scenario.network, *scenario.network.switches]
+    adjacencies = [build_adjacency(g, names, where) for g, where in zip(graphs, places)]
     switch_times = [0.0] + [sw.t_s for sw in scenario.network.switches]
-
-    ctrl, act = scenario.controller, scenario.actuators
     period = scenario.control_period_s
     dt = scenario.sim.dt_s
-    if isinstance(ctrl, ConsensusSync):
-        ctrl_params = {"alpha": ctrl.alpha, "beta": ctrl.beta}
-        if isinstance(ctrl, ConsensusTrack):
-            q_ref0 = np.asarray(ctrl.q_ref0, dtype=float)
-            ctrl_params.update(
-                k_p=ctrl.k_p, k_d=ctrl.k_d, omega_ref_b=np.asarray(ctrl.omega_ref_rad_s, dtype=float),
-                q_ref0=q_ref0 / np.linalg.norm(q_ref0),
-            )
-    else:
-        ctrl_params = {}
-    act_params = {"torque_max_nm": act.torque_max_nm}
-    if isinstance(act, PwmThrusters):
-        act_params["min_pulse_s"] = act.min_pulse_s
+    ctx = BuildContext(
+        scenario=scenario, names=names, inertia_kgm2=inertia, dt_s=dt, period_s=period, adjacencies=adjacencies,
+        graph_places=places, switch_ticks=np.array([round(t / dt) for t in switch_times], dtype=np.int64),
+    )
+
+    parts = {"controller": [], "network": [], "sensor": [], "actuator": [], "disturbance": []}
+    used, checks = [], {}
+    for role, place, table in _scenario_tables(scenario):
+        plugin = plugin_for(role, table)
+        try:
+            parts[role].append(plugin.build(table, ctx))
+            for check in plugin.checks:
+                for result in _checks(check(table, ctx)):
+                    checks[result.name] = result
+        except DesignError as err:
+            raise ScenarioError(str(err)) from None
+        used.append(plugin)
+    act_places = [place for role, place, _ in _scenario_tables(scenario) if role == "actuator"]
+    _check_commands(parts["controller"][0], parts["actuator"], act_places)
+    forces = [a for a in parts["actuator"] if a.channel.startswith("force")]
+    if forces and scenario.orbit is None:
+        raise ScenarioError("actuators: a force actuator needs an [orbit] table (the translational truth model)")
+    if forces and any(sc.mass_kg is None for sc in scenario.spacecraft):
+        missing = [sc.name for sc in scenario.spacecraft if sc.mass_kg is None]
+        raise ScenarioError(f"spacecraft: a force acts, so every spacecraft needs mass_kg; missing for {missing}")
 
     orbit = scenario.orbit
     structure = Structure(
         n_spacecraft=n,
         gravity="none" if orbit is None else orbit.gravity,
-        controller=ctrl.kind,
-        actuator=act.kind,
-        short_way=bool(getattr(ctrl, "short_way", False)),
         ticks_per_period=whole_ratio(period, dt),
         periods_per_record=whole_ratio(scenario.record_interval_s, period),
         substeps=scenario.sim.substeps,
@@ -277,24 +246,21 @@ def build(scenario):
         mu_m3_s2=0.0 if orbit is None else orbit.mu_m3_s2,
         j2=0.0 if orbit is None else orbit.j2,
         r_body_m=1.0 if orbit is None else orbit.r_body_m,
+        mass_kg=np.array([np.nan if sc.mass_kg is None else sc.mass_kg for sc in scenario.spacecraft]),
+        chief=0,
     )
     system = System(
         structure,
-        *as_arrays(
-            (
-                dt, x0, plant, links.src, links.dst, links.weight,
-                np.array([round(t / dt) for t in switch_times], dtype=np.int64), ctrl_params, act_params,
-            )
-        ),
+        *as_arrays((dt, jax.random.PRNGKey(scenario.seed), x0, plant)),
+        controller=parts["controller"][0],
+        network=parts["network"][0],
+        sensors=tuple(parts["sensor"]),
+        actuators=tuple(parts["actuator"]),
+        disturbances=tuple(parts["disturbance"]),
     )
-    stability = _stability(scenario, inertia, adjacencies, notes)
-    stability_note = None
-    if stability is not None:
-        stability_note = stability_message(stability, names, saturates=bool(np.isfinite(act.torque_max_nm)))
-        if not stability.stable:
-            notes.append(stability_note)
+    notes = [c.note for c in checks.values() if not c.ok]
     for note in notes:
-        warnings.warn(note, ConsensusWarning, stacklevel=2)
+        warnings.warn(note, DesignWarning, stacklevel=2)
     return Built(
         scenario=scenario,
         system=system,
@@ -304,7 +270,7 @@ def build(scenario):
         switch_times_s=switch_times,
         n_records=whole_ratio(scenario.sim.t_final_s, scenario.record_interval_s),
         record_interval_s=scenario.record_interval_s,
-        stability=stability,
-        stability_note=stability_note,
+        checks=checks,
+        plugins=used,
         warnings=notes,
     )

@@ -168,7 +168,9 @@ def _merge_defaults(raw):
 
 def format_validation_error(err, prefix=""):
     """One line naming each failing field: ``controller.alpha: Input should be greater than 0``."""
-    tags = {"none", "consensus-sync", "consensus-track", "ideal-torque", "pwm-thrusters"}
+    from coopsat.plugins import all_kinds
+
+    tags = all_kinds()  # pydantic puts the kind of a tagged union in the error's location
     msgs = []
     for e in err.errors():
         parts = [prefix] if prefix else []

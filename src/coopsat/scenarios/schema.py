@@ -1,5 +1,10 @@
 """Scenario file schema: pydantic models with ``extra="forbid"``.
 
+The core tables (``[sim]``, ``[[spacecraft]]``, ``[orbit]``, ``[network]``, ``[analysis]``,
+``[[published]]``) are defined here; the tables of controllers, actuators, sensors, network
+models and disturbances belong to their plug-ins (:mod:`coopsat.plugins`) and are composed
+into :class:`Scenario` from the registry, each selected by its ``kind``.
+
 Every field is SI; only fields whose name ends in ``_deg`` are in degrees (converted when the
 scenario is built). docs/scenarios.md documents each field; keep the two in step.
 """
@@ -7,28 +12,17 @@ scenario is built). docs/scenarios.md documents each field; keep the two in step
 from typing import Annotated, Literal, Union
 
 import numpy as np
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from coopsat.astro.constants import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
-
-Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+from coopsat.plugins import plugins
+from coopsat.plugins.tables import Quat, Table, Vec3, check_finite, whole_ratio
 
 MAX_TICKS = 1e10
 """Longest run in base ticks (about 10 hours of compute at the engine's speed for N = 5)."""
 
 MAX_SAMPLES = 1e7
 """Most spacecraft-samples a run may record (about 250 bytes each with PWM: 2.5 GB)."""
-
-QUAT_NORM_TOL = 0.05
-"""Scenario quaternions are normalised at load; a norm further than this from 1 is a typo."""
-
-
-def whole_ratio(a, b):
-    """``a / b`` as an int when it is a whole number (to 1e-9 relative), else None."""
-    r = a / b
-    k = round(r)
-    return k if k >= 1 and abs(r - k) <= 1e-9 * max(1.0, r) else None
-
 
 def _whole_multiple(a, b, name_a, name_b):
     if whole_ratio(a, b) is None:
@@ -37,23 +31,6 @@ def _whole_multiple(a, b, name_a, name_b):
 
 NAME_PATTERN = r"^[A-Za-z0-9_.\-]{1,64}$"
 """Scenario and spacecraft names: they become file, folder and metric names."""
-
-
-class _Strict(BaseModel):
-    # NaN and infinity are never valid input (an unsaturated actuator omits torque_max_nm).
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
-def _check_quaternion(q):
-    norm = float(np.linalg.norm(q))
-    if not np.all(np.isfinite(q)) or norm == 0.0:
-        raise ValueError("must be a non-zero, finite quaternion [q0, q1, q2, q3] (scalar first)")
-    if abs(norm - 1.0) > QUAT_NORM_TOL:
-        raise ValueError(
-            f"norm is {norm:.4g}; expected a unit quaternion (scalar first; within {QUAT_NORM_TOL:g} of 1, "
-            "rounded values are normalised)"
-        )
-    return q
 
 
 def _check_inertia(inertia):
@@ -77,20 +54,31 @@ def _check_inertia(inertia):
     return inertia
 
 
-def _check_finite(v):
-    if not np.all(np.isfinite(v)):
-        raise ValueError("must be finite")
-    return v
-
-
-Quat = Annotated[list[float], Field(min_length=4, max_length=4), AfterValidator(_check_quaternion)]
-"""A scalar-first quaternion, unit to within :data:`QUAT_NORM_TOL`."""
-
 Inertia = Annotated[list[float] | list[list[float]], AfterValidator(_check_inertia)]
 """[Ixx, Iyy, Izz] or a symmetric 3×3, kg·m², physically possible."""
 
 
-class Sim(_Strict):
+def _union(role):
+    """The scenario type of one role: the registered tables, told apart by ``kind``."""
+    tables = tuple(p.table for p in plugins(role).values())
+    if not tables:
+        def _none_registered(v):
+            raise ValueError(f"no {role} kinds are installed")
+
+        return Annotated[dict, AfterValidator(_none_registered)]
+    if len(tables) == 1:
+        return tables[0]
+    return Annotated[Union[tables], Field(discriminator="kind")]
+
+
+Controller = _union("controller")
+Actuator = _union("actuator")
+Delivery = _union("network")
+Sensor = _union("sensor")
+Disturbance = _union("disturbance")
+
+
+class Sim(Table):
     """``[sim]``: time base of the run."""
 
     t_final_s: float = Field(gt=0, description="Run length, s.")
@@ -101,7 +89,7 @@ class Sim(_Strict):
     )
 
 
-class Elements(_Strict):
+class Elements(Table):
     """Classical orbital elements of one spacecraft (``[spacecraft.elements]``)."""
 
     a_m: float = Field(gt=0)
@@ -112,16 +100,17 @@ class Elements(_Strict):
     mean_anomaly_deg: float = 0.0
 
 
-class SpacecraftDefaults(_Strict):
+class SpacecraftDefaults(Table):
     """``[spacecraft_defaults]``: fields every ``[[spacecraft]]`` inherits unless it sets them."""
 
     inertia_kgm2: Inertia | None = None
     q_bi: Quat | None = None
     omega_b_rad_s: Vec3 | None = None
     h_wheels_b_nms: Vec3 | None = None
+    mass_kg: float | None = Field(None, gt=0)
 
 
-class Spacecraft(_Strict):
+class Spacecraft(Table):
     """One ``[[spacecraft]]`` entry (after defaults are merged)."""
 
     name: str | None = Field(
@@ -133,6 +122,7 @@ class Spacecraft(_Strict):
     q_bi: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Initial attitude, body relative to inertial, scalar first.")
     omega_b_rad_s: Vec3 = Field([0.0, 0.0, 0.0], description="Initial body rate, body frame, rad/s.")
     h_wheels_b_nms: Vec3 = Field([0.0, 0.0, 0.0], description="Wheel angular momentum, body frame, N·m·s.")
+    mass_kg: float | None = Field(None, gt=0, description="Mass, kg (needed when a force acts).")
     r_eci_m: Vec3 | None = None
     v_eci_m_s: Vec3 | None = None
     elements: Elements | None = None
@@ -140,7 +130,7 @@ class Spacecraft(_Strict):
     @field_validator("omega_b_rad_s", "h_wheels_b_nms", "r_eci_m", "v_eci_m_s")
     @classmethod
     def _finite(cls, v):
-        return v if v is None else _check_finite(v)
+        return v if v is None else check_finite(v)
 
     @model_validator(mode="after")
     def _one_translational_source(self):
@@ -151,7 +141,7 @@ class Spacecraft(_Strict):
         return self
 
 
-class Orbit(_Strict):
+class Orbit(Table):
     """``[orbit]``: translational truth model (omit for attitude-only runs)."""
 
     gravity: Literal["two-body", "j2"] = "two-body"
@@ -160,7 +150,7 @@ class Orbit(_Strict):
     r_body_m: float = Field(R_EARTH_M, gt=0, description="Central body's equatorial radius, m.")
 
 
-class Graph(_Strict):
+class Graph(Table):
     """A communication graph: who hears whom (the fields shared by ``[network]`` and its switches)."""
 
     kind: Literal["none", "ring", "chain", "star", "complete", "edges", "adjacency"] = "none"
@@ -207,8 +197,12 @@ class GraphSwitch(Graph):
 
 
 class Network(Graph):
-    """``[network]``: who hears whom, and when that changes."""
+    """``[network]``: who hears whom, when that changes, and how messages travel."""
 
+    delivery: Delivery = Field(
+        {"kind": "ideal"}, validate_default=True,
+        description="Network model ([network.delivery], by kind): delays, losses, relaying.",
+    )
     require_spanning_tree: bool = Field(
         True, description="A consensus law on a graph without a spanning tree is an error (false: a warning)."
     )
@@ -224,55 +218,9 @@ class Network(Graph):
         return self
 
 
-class NoController(_Strict):
-    """``kind = "none"``: torque-free (no control)."""
-
-    kind: Literal["none"]
-    period_s: float | None = Field(None, gt=0, description="Default: sim.dt_s.")
 
 
-class ConsensusSync(_Strict):
-    """``kind = "consensus-sync"``: law (3) of the 2010 consensus paper."""
-
-    kind: Literal["consensus-sync"]
-    period_s: float = Field(gt=0, description="Control period (zero-order hold; PWM period), s.")
-    alpha: float = Field(gt=0, description="Attitude consensus gain α, N·m.")
-    beta: float = Field(gt=0, description="Rate consensus gain β, N·m·s/rad.")
-    short_way: bool = Field(False, description="Error quaternions on the q0 >= 0 hemisphere (paper: false).")
-
-
-class ConsensusTrack(ConsensusSync):
-    """``kind = "consensus-track"``: law (4), law (3) plus tracking of a reference."""
-
-    kind: Literal["consensus-track"]
-    k_p: float = Field(gt=0, description="Reference attitude gain K, N·m.")
-    k_d: float = Field(gt=0, description="Reference rate gain D, N·m·s/rad.")
-    omega_ref_rad_s: Vec3 = Field(description="Constant reference body rate ω_r, rad/s.")
-    q_ref0: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Reference attitude at t = 0, scalar first.")
-
-
-Controller = Annotated[Union[NoController, ConsensusSync, ConsensusTrack], Field(discriminator="kind")]
-
-
-class IdealTorque(_Strict):
-    """``kind = "ideal-torque"``: the commanded torque, saturated per axis."""
-
-    kind: Literal["ideal-torque"]
-    torque_max_nm: float = Field(float("inf"), gt=0, description="Saturation per body axis, N·m (default none).")
-
-
-class PwmThrusters(_Strict):
-    """``kind = "pwm-thrusters"``: a ± thruster pair per body axis, eq. (10)."""
-
-    kind: Literal["pwm-thrusters"]
-    torque_max_nm: float = Field(gt=0, description="Torque of one thruster pair T_max, N·m.")
-    min_pulse_s: float = Field(ge=0, description="Minimum pulse width τ, s (< control period).")
-
-
-Actuator = Annotated[Union[IdealTorque, PwmThrusters], Field(discriminator="kind")]
-
-
-class Analysis(_Strict):
+class Analysis(Table):
     """``[analysis]``: thresholds of the metrics."""
 
     sync_attitude_deg: float = Field(1.0, gt=0, description="Pairwise attitude error that counts as synchronised, deg.")
@@ -282,7 +230,7 @@ class Analysis(_Strict):
     )
 
 
-class Published(_Strict):
+class Published(Table):
     """One ``[[published]]`` number of the source paper, compared with ours after the run."""
 
     quantity: str = Field(description="Name of one of our metrics (metrics.json key).")
@@ -297,7 +245,7 @@ class Published(_Strict):
     note: str = Field("", description="What differs from the paper's set-up; quoted when the verdict is 'differs'.")
 
 
-class Scenario(_Strict):
+class Scenario(Table):
     """A whole scenario file."""
 
     name: str = Field(pattern=NAME_PATTERN, description="Scenario name (letters, digits, _ . -); default the file's stem.")
@@ -307,8 +255,13 @@ class Scenario(_Strict):
     spacecraft: list[Spacecraft] = Field(min_length=1)
     orbit: Orbit | None = None
     network: Network = Network()
-    controller: Controller = NoController(kind="none")
-    actuators: Actuator = IdealTorque(kind="ideal-torque")
+    controller: Controller = Field({"kind": "none"}, validate_default=True)
+    actuators: Actuator | list[Actuator] = Field(
+        {"kind": "ideal-torque"}, validate_default=True,
+        description="One actuator table, or an array of tables [[actuators]] (each executes one command).",
+    )
+    sensors: list[Sensor] = Field([], description="[[sensors]]: each replaces one measured quantity by a sensor's reading.")
+    disturbances: list[Disturbance] = Field([], description="[[disturbances]]: environment forces and torques.")
     analysis: Analysis = Analysis()
     published: list[Published] = []
 
@@ -323,8 +276,6 @@ class Scenario(_Strict):
         if self.orbit is not None and not all(has_rv):
             missing = [s.name for s, h in zip(self.spacecraft, has_rv) if not h]
             raise ValueError(f"orbit: every spacecraft needs r_eci_m/v_eci_m_s or elements; missing for {missing}")
-        if isinstance(self.actuators, PwmThrusters) and isinstance(self.controller, NoController):
-            raise ValueError("actuators: pwm-thrusters need a controller")
         period = self.control_period_s
         _whole_multiple(period, self.sim.dt_s, "controller.period_s", "sim.dt_s")
         _whole_multiple(self.record_interval_s, period, "sim.record_interval_s", "the control period")
@@ -340,12 +291,12 @@ class Scenario(_Strict):
             )
         for k, sw in enumerate(self.network.switches):
             _whole_multiple(sw.t_s, period, f"network.switches[{k}].t_s", "the control period")
-        if isinstance(self.actuators, PwmThrusters) and not self.actuators.min_pulse_s < period:
-            raise ValueError(
-                f"actuators.min_pulse_s ({self.actuators.min_pulse_s:g} s) must be shorter than the control period "
-                f"({period:g} s)"
-            )
         return self
+
+    @property
+    def actuator_list(self):
+        """The actuator tables as a list (``[actuators]`` or ``[[actuators]]``)."""
+        return list(self.actuators) if isinstance(self.actuators, list) else [self.actuators]
 
     @property
     def control_period_s(self):

@@ -31,13 +31,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from coopsat.actuators.ideal import ideal_torque_pulse
-from coopsat.actuators.pulses import pulse_mean_torque, torque_between
-from coopsat.actuators.pwm import pwm_pulse, thruster_on_time_s
-from coopsat.control.consensus import consensus_sync_torque, consensus_track_torque, reference_attitude
+from coopsat.actuators.pulses import torque_between
 from coopsat.dynamics.plant import plant_derivative
 from coopsat.geometry.quaternion import quat_normalize
-from coopsat.network.delivery import deliver_ideal
 
 
 class NonFiniteStateError(RuntimeError):
@@ -46,6 +42,10 @@ class NonFiniteStateError(RuntimeError):
 
 AXIS = 0
 """Component axis inside the compiled loop (component-major arrays, spacecraft last)."""
+
+# Sub-streams of a period's random key, one per role, so that adding a sensor never changes
+# the draws of another part (jax.random.fold_in of the period key with these numbers + index).
+_KEY_CONTROLLER, _KEY_NETWORK, _KEY_SENSORS, _KEY_ACTUATORS, _KEY_DISTURBANCES = 1, 2, 1000, 2000, 3000
 
 
 def _cm(a):
@@ -59,190 +59,225 @@ def _engine_view(system):
     return dataclasses.replace(system, plant=p._replace(inertia_kgm2=_cm(p.inertia_kgm2), inertia_inv=_cm(p.inertia_inv)))
 
 
-# --- controllers: (t, outbox, inbox, link weights, system) -> (command (3, n), aux dict) ------
-
-
-def _no_control(t, own, inbox, weight, system):
-    return jnp.zeros_like(own["omega"]), {}
-
-
-def _sync_control(t, own, inbox, weight, system):
-    p = system.controller
-    u = consensus_sync_torque(
-        own["q"], own["omega"], inbox["q"], inbox["omega"], system.links_dst, weight,
-        p["alpha"], p["beta"], system.structure.short_way, AXIS,
-    )
-    return u, {}
-
-
-def _track_control(t, own, inbox, weight, system):
-    p = system.controller
-    q_ref = reference_attitude(p["q_ref0"], p["omega_ref_b"], t)
-    u = consensus_track_torque(
-        own["q"], own["omega"], inbox["q"], inbox["omega"], system.links_dst, weight,
-        p["alpha"], p["beta"], p["k_p"], p["k_d"], q_ref, p["omega_ref_b"], system.structure.short_way, AXIS,
-    )
-    return u, {"q_ref": q_ref}
-
-
-CONTROLLERS = {
-    "none": _no_control,
-    "consensus-sync": _sync_control,
-    "consensus-track": _track_control,
-}
-"""Control laws by scenario ``controller.kind``."""
-
-
-# --- actuators: (command, system) -> Pulse; pulsed actuators switch inside a period ----------
-
-
-@dataclass(frozen=True)
-class _Actuator:
-    plan: callable
-    pulsed: bool
-    counts_thrusters: bool
-
-
-ACTUATORS = {
-    "ideal-torque": _Actuator(
-        lambda u, s: ideal_torque_pulse(u, s.period_s, s.actuator["torque_max_nm"]), pulsed=False, counts_thrusters=False
-    ),
-    "pwm-thrusters": _Actuator(
-        lambda u, s: pwm_pulse(u, s.period_s, s.actuator["torque_max_nm"], s.actuator["min_pulse_s"]),
-        pulsed=True,
-        counts_thrusters=True,
-    ),
-}
-"""Actuators by scenario ``actuators.kind``."""
-
-
 # --- integration ------------------------------------------------------------------------------
 
 
-def _moving_fields(gravity):
-    return ("q_bi", "omega_b") if gravity == "none" else ("q_bi", "omega_b", "r_eci", "v_eci")
+def _wheels(system):
+    """Static: some part turns wheels (their momentum is then integrated)."""
+    return any(a.channel == "wheel_torque_b" for a in system.actuators)
 
 
-def _rk4(x, torque, h, system):
-    """One RK4 step of length ``h`` (scalar, or (n,): one per spacecraft) with a constant torque."""
-    fields = _moving_fields(system.structure.gravity)
+def _moving_fields(system):
+    fields = ("q_bi", "omega_b") + (("h_wheels_b",) if _wheels(system) else ())
+    return fields if system.structure.gravity == "none" else fields + ("r_eci", "v_eci")
 
-    def f(xx):
-        d = plant_derivative(xx, torque, system.plant, system.structure.gravity, AXIS)
+
+def _add(wrench, channel, value):
+    wrench[channel] = wrench[channel] + value if channel in wrench else value
+    return wrench
+
+
+def _disturbance_wrench(system, t, x, d_states, wrench):
+    for d, st in zip(system.disturbances, d_states):
+        for channel, value in d.wrench(t, x, st).items():
+            wrench = _add(dict(wrench), channel, value)
+    return wrench
+
+
+def _rk4(x, wrench, t, h, d_states, system):
+    """One RK4 step of length ``h`` (scalar, or (n,): one per spacecraft) from time ``t``, with
+    the actuators' wrench constant and the disturbances evaluated at every stage."""
+    fields = _moving_fields(system)
+
+    def f(xx, tt):
+        w = _disturbance_wrench(system, tt, xx, d_states, wrench) if system.disturbances else wrench
+        d = plant_derivative(xx, w, system.plant, system.structure.gravity, AXIS)
         return {k: getattr(d, k) for k in fields}
 
     def shifted(k, c):
         return x._replace(**{name: getattr(x, name) + c * k[name] for name in fields})
 
-    k1 = f(x)
-    k2 = f(shifted(k1, 0.5 * h))
-    k3 = f(shifted(k2, 0.5 * h))
-    k4 = f(shifted(k3, h))
+    k1 = f(x, t)
+    k2 = f(shifted(k1, 0.5 * h), t + 0.5 * h)
+    k3 = f(shifted(k2, 0.5 * h), t + 0.5 * h)
+    k4 = f(shifted(k3, h), t + h)
     return x._replace(
         **{name: getattr(x, name) + (h / 6.0) * (k1[name] + 2.0 * k2[name] + 2.0 * k3[name] + k4[name]) for name in fields}
     )
 
 
-def _integrate_tick(x, pulse, t_in_period, system, batched):
-    """Advance one base tick that starts ``t_in_period`` seconds into the control period."""
+def _wrench(system, pulses, level_of):
+    """Sum the actuators' contributions per channel; ``level_of(actuator, pulse)`` -> (3, n)."""
+    wrench = {}
+    for a, p in zip(system.actuators, pulses):
+        wrench = _add(wrench, a.channel, level_of(a, p))
+    return wrench
+
+
+def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched):
+    """Advance one base tick that starts ``t_in_period`` seconds into the control period
+    (``t_period``: the period's start time, s)."""
     dt = system.dt_s
     sub = system.structure.substeps
+    t0 = t_period + t_in_period
+    pulsed = [p for a, p in zip(system.actuators, pulses) if a.pulsed]
 
-    def smooth(xx, torque):
-        for _ in range(sub):
-            xx = _rk4(xx, torque, dt / sub, system)
+    def smooth(xx, wrench):
+        for k in range(sub):
+            xx = _rk4(xx, wrench, t0 + k * (dt / sub), dt / sub, d_states, system)
         return xx
 
     def split(xx):
-        # Switch instants of the three axes inside this tick, sorted per spacecraft: the torque
-        # is constant between consecutive instants, so each segment is integrated exactly as a
-        # smooth ODE. Zero-length segments are RK4 steps of length 0, i.e. no-ops.
-        cuts = jnp.sort(jnp.clip(pulse.t_off_s - t_in_period, 0.0, dt), axis=0)  # (3, n)
+        # Switch instants of every pulsed axis inside this tick, sorted per spacecraft: the
+        # wrench is constant between consecutive instants, so each segment is integrated
+        # exactly as a smooth ODE. Zero-length segments are RK4 steps of length 0 (no-ops).
+        cuts = jnp.sort(jnp.concatenate([jnp.clip(p.t_off_s - t_in_period, 0.0, dt) for p in pulsed]), axis=0)
         zero = jnp.zeros_like(cuts[:1])
-        bounds = jnp.concatenate([zero, cuts, zero + dt], axis=0)  # (5, n)
-        for m in range(4):
+        bounds = jnp.concatenate([zero, cuts, zero + dt], axis=0)
+        for m in range(cuts.shape[0] + 1):
             a, b = bounds[m], bounds[m + 1]
-            torque = torque_between(pulse, t_in_period + a, t_in_period + b)
-            for _ in range(sub):
-                xx = _rk4(xx, torque, (b - a) / sub, system)
+            wrench = _wrench(
+                system, pulses,
+                lambda act, p: torque_between(p, t_in_period + a, t_in_period + b) if act.pulsed else p.level_nm,
+            )
+            for k in range(sub):
+                xx = _rk4(xx, wrench, t0 + a + k * ((b - a) / sub), (b - a) / sub, d_states, system)
         return xx
 
-    if not ACTUATORS[system.structure.actuator].pulsed:
-        x = smooth(x, pulse.level_nm)
+    if not pulsed:
+        x = smooth(x, _wrench(system, pulses, lambda act, p: p.level_nm))
     elif batched:
         x = split(x)  # under vmap a cond would evaluate both branches anyway
     else:
         # Most ticks of a long period hold no switch: integrate those in one piece, with each
         # axis on or off for the whole tick.
-        switch_inside = (pulse.t_off_s > t_in_period) & (pulse.t_off_s < t_in_period + dt) & (pulse.level_nm != 0.0)
-        held = jnp.where(pulse.t_off_s >= t_in_period + dt, pulse.level_nm, 0.0)
-        x = jax.lax.cond(jnp.any(switch_inside), split, lambda xx: smooth(xx, held), x)
+        switch_inside = jnp.any(jnp.stack([
+            jnp.any((p.t_off_s > t_in_period) & (p.t_off_s < t_in_period + dt) & (p.level_nm != 0.0)) for p in pulsed
+        ]))
+        held = _wrench(
+            system, pulses,
+            lambda act, p: jnp.where(p.t_off_s >= t_in_period + dt, p.level_nm, 0.0) if act.pulsed else p.level_nm,
+        )
+        x = jax.lax.cond(switch_inside, split, lambda xx: smooth(xx, held), x)
     return x._replace(q_bi=quat_normalize(x.q_bi, AXIS))
 
 
-def _active_weights(system, tick):
-    """Link weights of the graph in force at ``tick`` (switching topology: last switch ≤ tick)."""
-    if system.links_weight.shape[0] == 1:
-        return system.links_weight[0]
-    return system.links_weight[jnp.searchsorted(system.switch_ticks, tick, side="right") - 1]
+# --- one control period ------------------------------------------------------------------------
 
 
-def _command(system, x, tick):
-    """Sense, deliver and control at the start of a period: returns (pulse, command, aux)."""
+def _truth(system, x):
+    """What ideal sensors would read: the true state, component-major."""
+    y = {"q": x.q_bi, "omega": x.omega_b}
+    if _wheels(system):
+        y["h_wheels"] = x.h_wheels_b
+    if system.structure.gravity != "none":
+        y.update(r_eci=x.r_eci, v_eci=x.v_eci)
+    return y
+
+
+def _sense(system, x, st, frame, key):
+    """Measurements of every spacecraft: the truth, with each sensor's quantity replaced by
+    what the sensor reads (held between its updates)."""
+    y = _truth(system, x)
+    states, held = [], []
+    for j, (s, s_state, s_held) in enumerate(zip(system.sensors, st["sensors"], st["held"])):
+        value, s_state = s.measure(y[s.quantity], x, s_state, jax.random.fold_in(key, _KEY_SENSORS + j))
+        if s.every > 1:
+            value = jnp.where(frame % s.every == 0, value, s_held)
+        y[s.quantity] = value
+        states.append(s_state)
+        held.append(value)
+    return y, {**st, "sensors": tuple(states), "held": tuple(held)}
+
+
+def _command(system, x, st, tick):
+    """Sense, deliver, control and actuate at the start of a period.
+
+    Returns (pulses, states, record): one pulse per actuator, the parts' new states, and what
+    the controller records at this instant.
+    """
     t = tick * system.dt_s
-    outbox = {"q": x.q_bi, "omega": x.omega_b}
-    inbox = deliver_ideal(outbox, system.links_src, spacecraft_axis=-1)
-    u, aux = CONTROLLERS[system.structure.controller](t, outbox, inbox, _active_weights(system, tick), system)
-    pulse = ACTUATORS[system.structure.actuator].plan(u, system)
-    return pulse, u, aux
+    frame = tick // system.structure.ticks_per_period
+    key = jax.random.fold_in(system.key, frame)
+    y, st = _sense(system, x, st, frame, key)
+    ctrl = system.controller
+    outbox = ctrl.outbox(y, st["controller"])
+    inbox, net_state = system.network.deliver(tick, outbox, st["network"], jax.random.fold_in(key, _KEY_NETWORK))
+    cmd, ctrl_state, record = ctrl.step(t, y, inbox, st["controller"], jax.random.fold_in(key, _KEY_CONTROLLER))
+    pulses, act_states = [], []
+    for j, (a, a_state) in enumerate(zip(system.actuators, st["actuators"])):
+        command = cmd[a.command] if a.command in cmd else jnp.zeros_like(x.omega_b)
+        pulse, a_state = a.plan(command, x, a_state, system.period_s, jax.random.fold_in(key, _KEY_ACTUATORS + j))
+        pulses.append(pulse)
+        act_states.append(a_state)
+    d_states = tuple(
+        d.update(t, x, d_state, jax.random.fold_in(key, _KEY_DISTURBANCES + j))
+        for j, (d, d_state) in enumerate(zip(system.disturbances, st["disturbances"]))
+    )
+    st = {**st, "controller": ctrl_state, "network": net_state, "actuators": tuple(act_states), "disturbances": d_states}
+    return tuple(pulses), st, record
 
 
-def _account(system, pulse):
-    """Per-period increments of the counters: angular impulse per axis (signed and absolute),
-    and per thruster the on-time and the number of firings."""
-    inc = {"impulse_nms": pulse.level_nm * pulse.t_off_s, "abs_impulse_nms": jnp.abs(pulse.level_nm) * pulse.t_off_s}
-    if ACTUATORS[system.structure.actuator].counts_thrusters:
-        on = thruster_on_time_s(pulse, AXIS)
-        inc["thruster_on_time_s"] = on
-        inc["thruster_firings"] = (on > 0.0).astype(on.dtype)
+def _account(system, pulses):
+    """Per-period increments of every actuator's counters (impulse, on-time, firings, bits…)."""
+    inc = {}
+    for a, p in zip(system.actuators, pulses):
+        for k, v in a.account(p).items():
+            if k in inc:
+                raise ValueError(f"two actuators both count '{k}'; give them distinct outputs")
+            inc[k] = v
     return inc
 
 
 def _period(system, carry, batched):
-    """One control period. Returns the new carry and the period's (pulse, command, aux)."""
-    x, acc, tick = carry
-    pulse, u, aux = _command(system, x, tick)
+    """One control period. Returns the new carry and the period's (pulses, record)."""
+    x, st, acc, tick = carry
+    pulses, st, record = _command(system, x, st, tick)
     tpp = system.structure.ticks_per_period
+    t_period = tick * system.dt_s
+    d_states = st["disturbances"]
     if tpp == 1:
-        x = _integrate_tick(x, pulse, 0.0, system, batched)
+        x = _integrate_tick(x, pulses, 0.0, t_period, d_states, system, batched)
     else:
-        x = jax.lax.fori_loop(0, tpp, lambda k, xx: _integrate_tick(xx, pulse, k * system.dt_s, system, batched), x)
-    acc = jax.tree_util.tree_map(jnp.add, acc, _account(system, pulse))
-    return (x, acc, tick + tpp), (pulse, u, aux)
+        x = jax.lax.fori_loop(
+            0, tpp, lambda k, xx: _integrate_tick(xx, pulses, k * system.dt_s, t_period, d_states, system, batched), x
+        )
+    acc = jax.tree_util.tree_map(jnp.add, acc, _account(system, pulses))
+    return (x, st, acc, tick + tpp), (pulses, record)
 
 
-def _sample(system, x, acc, torque, u, aux):
-    sample = {"q_bi": x.q_bi, "omega_b": x.omega_b, "command_nm": u, "torque_nm": torque, **acc, **aux}
+def _state_sample(system, x):
+    sample = {"q": x.q_bi, "omega": x.omega_b}
+    if _wheels(system):
+        sample["h_wheels"] = x.h_wheels_b
     if system.structure.gravity != "none":
         sample.update(r_eci=x.r_eci, v_eci=x.v_eci)
     return sample
 
 
+def _means(system, acc_before, acc_after, interval_s):
+    """Each actuator's mean output over an interval, from its counter (e.g. mean torque from
+    the signed angular impulse)."""
+    return {
+        a.mean_output[0]: (acc_after[a.mean_output[1]] - acc_before[a.mean_output[1]]) / interval_s
+        for a in system.actuators
+    }
+
+
 def _block(system, carry, batched):
     """One record interval: the sample at its start, then ``periods_per_record`` periods.
 
-    The sample holds the state and command at its instant and the mean torque actually
-    applied over the whole interval that follows (from the signed impulse accumulated over
-    it), so no period is left out of the record.
+    The sample holds the state and the controller's record at its instant and the mean
+    output of each actuator over the whole interval that follows (from the counters
+    accumulated over it), so no period is left out of the record.
     """
-    x, acc, _ = carry
-    carry, (_, u, aux) = _period(system, carry, batched)
+    x, _, acc, _ = carry
+    carry, (_, record) = _period(system, carry, batched)
     rest = system.structure.periods_per_record - 1
     if rest > 0:
         carry = jax.lax.fori_loop(0, rest, lambda _, c: _period(system, c, batched)[0], carry)
     interval = system.period_s * system.structure.periods_per_record
-    torque = (carry[1]["impulse_nms"] - acc["impulse_nms"]) / interval
-    return carry, _sample(system, x, acc, torque, u, aux)
+    return carry, {**_state_sample(system, x), **acc, **record, **_means(system, acc, carry[2], interval)}
 
 
 @partial(jax.jit, static_argnames=("chunk", "batched"))
@@ -264,19 +299,57 @@ def _run_chunk(system, carry, first_record, n_records, chunk, batched=False):
 
 @jax.jit
 def _final_sample(system, carry):
-    """The sample at the end of the run; its torque is the mean of the period that would follow."""
+    """The sample at the end of the run; actuator means are those of the period that would follow."""
     system = _engine_view(system)
-    x, acc, tick = carry
-    pulse, u, aux = _command(system, x, tick)
-    return _sample(system, x, acc, pulse_mean_torque(pulse, system.period_s), u, aux)
+    x, st, acc, tick = carry
+    pulses, _, record = _command(system, x, st, tick)
+    inc = _account(system, pulses)
+    means = {a.mean_output[0]: inc[a.mean_output[1]] / system.period_s for a in system.actuators}
+    return {**_state_sample(system, x), **acc, **record, **means}
 
 
 def _initial_carry(system):
+    """State of the plant and of every part at t = 0, and zeroed counters.
+
+    The network's history before t = 0 is the first outbox (a constant initial function, as
+    is usual for delay equations).
+    """
+    system_cm = _engine_view(system)
     x0 = jax.tree_util.tree_map(_cm, system.x0)
     x0 = x0._replace(q_bi=quat_normalize(x0.q_bi, AXIS))
-    zeros = jax.eval_shape(lambda s: _account(s, ACTUATORS[s.structure.actuator].plan(x0.omega_b, s)), system)
+    n = system.structure.n_spacecraft
+    truth = _truth(system_cm, x0)
+    st = {
+        "controller": system.controller.init(n),
+        "sensors": tuple(s.init(truth[s.quantity], n) for s in system.sensors),
+        "held": tuple(truth[s.quantity] for s in system.sensors),
+        "actuators": tuple(a.init(n) for a in system.actuators),
+        "disturbances": tuple(d.init(n) for d in system.disturbances),
+        "network": (),
+    }
+    y0, _ = _sense(system_cm, x0, st, 0, jax.random.fold_in(system.key, 0))
+    st["network"] = system.network.init(system.controller.outbox(y0, st["controller"]))
+    zeros = jax.eval_shape(
+        lambda: _account(system_cm, tuple(a.plan(jnp.zeros_like(x0.omega_b), x0, s, system_cm.period_s, system.key)[0]
+                                          for a, s in zip(system_cm.actuators, st["actuators"])))
+    )
     acc = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), zeros)
-    return (x0, acc, jnp.zeros((), jnp.int64))
+    return (x0, st, acc, jnp.zeros((), jnp.int64))
+
+
+def output_specs(system):
+    """How each recorded output appears in the dataset: the plant's, then every part's.
+
+    Returns
+    -------
+    dict of str -> coopsat._parts.OutputSpec
+    """
+    from coopsat.sim.outputs import state_output_specs
+
+    specs = state_output_specs(_wheels(system), system.structure.gravity != "none")
+    for p in (system.controller, system.network, *system.sensors, *system.actuators, *system.disturbances):
+        specs.update(p.output_specs())
+    return specs
 
 
 def output_shapes(system):
@@ -285,10 +358,11 @@ def output_shapes(system):
     Returns
     -------
     dict of str -> tuple
-        ``(n_spacecraft, k)`` per spacecraft output, ``(k,)`` for reference outputs.
+        ``(n_spacecraft, k…)`` per spacecraft output, ``(k…,)`` for the others.
     """
     shapes = jax.eval_shape(lambda s: _final_sample(s, _initial_carry(s)), system)
-    return {k: v.shape if k in _REFERENCE_OUTPUTS else v.shape[::-1] for k, v in shapes.items()}
+    specs = output_specs(system)
+    return {k: (v.shape[-1], *v.shape[:-1]) if specs[k].per_spacecraft else v.shape for k, v in shapes.items()}
 
 
 @dataclass
@@ -321,13 +395,9 @@ _COMPILED_MAX = 32
 MAX_CHUNK = 4096
 """Most record intervals per compiled call: bounds the padding of the last chunk (memory)."""
 
-_REFERENCE_OUTPUTS = {"q_ref"}
-"""Outputs that are not per spacecraft (no spacecraft axis to move)."""
-
-
 def _check_finite(samples, t_s, offset, batched, names=None):
     """Raise :class:`NonFiniteStateError` naming the first sample, spacecraft and field."""
-    for name in ("q_bi", "omega_b", "r_eci", "v_eci"):
+    for name in ("q", "omega", "h_wheels", "r_eci", "v_eci"):
         if name not in samples:
             continue
         a = np.asarray(samples[name])
@@ -337,7 +407,7 @@ def _check_finite(samples, t_s, offset, batched, names=None):
             k = idx[1] if batched else idx[0]
             sc = idx[-1]
             run = f"run {idx[0]}, " if batched else ""
-            label = {"q_bi": "attitude q", "omega_b": "rate omega"}.get(name, name)
+            label = {"q": "attitude q", "omega": "rate omega", "h_wheels": "wheel momentum"}.get(name, name)
             who = names[sc] if names is not None else f"spacecraft index {sc}"
             raise NonFiniteStateError(
                 f"state became non-finite: {run}{label} of {who} at t = {t_s[offset + k]:g} s "
@@ -440,5 +510,6 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         )
         for k in last
     }
-    samples = {k: v if k in _REFERENCE_OUTPUTS else np.swapaxes(v, -1, -2) for k, v in samples.items()}
+    specs = output_specs(system)
+    samples = {k: np.moveaxis(v, -1, axis + 1) if specs[k].per_spacecraft else v for k, v in samples.items()}
     return RunOutput(t_s=t_s, samples=samples, compile_s=compile_s, run_s=run_s)

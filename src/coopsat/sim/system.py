@@ -23,17 +23,14 @@ from coopsat.dynamics.plant import PlantParams, PlantState
 class Structure:
     """Static description of the closed loop (part of the compiled program's cache key).
 
+    Which laws, actuators and sensors run is not here: it is the type and static fields of
+    each part in :class:`System` (also part of the cache key).
+
     Attributes
     ----------
     n_spacecraft : int
     gravity : {"none", "two-body", "j2"}
         Translational force model; "none" freezes position and velocity.
-    controller : str
-        Key of :data:`coopsat.sim.engine.CONTROLLERS`.
-    actuator : str
-        Key of :data:`coopsat.sim.engine.ACTUATORS`.
-    short_way : bool
-        Controllers take error quaternions on the ``q0 ≥ 0`` hemisphere.
     ticks_per_period : int
         Base ticks per control period (the controller's zero-order-hold interval).
     periods_per_record : int
@@ -44,9 +41,6 @@ class Structure:
 
     n_spacecraft: int
     gravity: str
-    controller: str
-    actuator: str
-    short_way: bool
     ticks_per_period: int
     periods_per_record: int
     substeps: int
@@ -54,7 +48,7 @@ class Structure:
 
 @dataclass(frozen=True)
 class System:
-    """Everything one closed-loop run needs.
+    """Everything one closed-loop run needs: the plant and one part per plug-in.
 
     Attributes
     ----------
@@ -62,33 +56,34 @@ class System:
         Static.
     dt_s : scalar array
         Base tick, s.
+    key : uint32 (2,)
+        The run's random key (from the scenario seed); every draw of the run derives from it.
     x0 : PlantState
         Initial state, fields ``(n, ...)``.
     plant : PlantParams
-    links_src, links_dst : int arrays, (E,) or (d, n)
-        Transmitter and receiver of each link: an edge list sorted by receiver, or a padded
-        in-neighbour table (see :class:`~coopsat.network.topology.Links`).
-    links_weight : (G, E) or (G, d, n)
-        Link weights ``a_ij`` of each of the G graphs of a switching topology (0 for a link a
-        graph lacks, and in padding slots); G = 1 for a fixed graph.
-    switch_ticks : int array (G,)
-        Tick from which each graph applies (the first is 0), increasing.
-    controller : dict of arrays
-        Gains and references of the control law (keys depend on the law).
-    actuator : dict of arrays
-        Actuator constants (keys depend on the actuator).
+    controller : part
+        Flight software (``init``, ``outbox``, ``step``; docs/architecture.md §4).
+    network : part
+        Delivers outboxes as inboxes (``init``, ``deliver``).
+    sensors : tuple of parts
+        Each replaces one measured quantity by what it reads (``init``, ``measure``).
+    actuators : tuple of parts
+        Each turns one command into a pulse on one wrench channel (``init``, ``plan``,
+        ``account``).
+    disturbances : tuple of parts
+        Environment wrenches (``init``, ``update``, ``wrench``).
     """
 
     structure: Structure
     dt_s: jnp.ndarray
+    key: jnp.ndarray
     x0: PlantState
     plant: PlantParams
-    links_src: jnp.ndarray
-    links_dst: jnp.ndarray
-    links_weight: jnp.ndarray
-    switch_ticks: jnp.ndarray
-    controller: dict
-    actuator: dict
+    controller: object
+    network: object
+    sensors: tuple
+    actuators: tuple
+    disturbances: tuple
 
     @property
     def period_s(self):
@@ -116,7 +111,7 @@ def stack_systems(systems):
     System
         Batched system for :func:`coopsat.sim.engine.simulate` with ``batched=True``.
     """
-    structures = {s.structure for s in systems}
+    structures = {jax.tree_util.tree_structure(s) for s in systems}
     if len(structures) != 1:
         raise ValueError("stack_systems: systems differ in structure (laws, rates or size); they cannot share a batch")
     return jax.tree_util.tree_map(lambda *leaves: jnp.stack([jnp.asarray(v) for v in leaves]), *systems)

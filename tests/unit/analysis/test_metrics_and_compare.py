@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from coopsat.analysis.compare import compare_published, comparison_markdown
+from coopsat.analysis.papers.consensus_2010 import EXPLAINERS
 from coopsat.analysis.metrics import (
     inertial_angular_momentum_nms,
     pairwise_attitude_error_deg,
@@ -65,10 +66,10 @@ def test_verdicts_follow_the_relation_and_tolerances():
 
 def test_a_never_reached_quantity_differs_and_the_unstable_loop_is_named():
     metrics = {"sync_time_s": None, "pwm_deadband_torque_nm": 0.005, "final_attitude_spread_deg": 1.7}
-    stable = compare_published([_entry(note="run at 0.01 s")], metrics, None, 400.0)[0]
+    stable = compare_published([_entry(note="run at 0.01 s")], metrics, None, 400.0, EXPLAINERS)[0]
     assert stable["verdict"] == "differs" and "never settled within the run (400 s)" in stable["reason"]
     assert "minimum pulse" in stable["reason"] and stable["reason"].endswith("run at 0.01 s")
-    unstable = compare_published([_entry()], {**metrics, "spectral_radius": 15.8}, "loop UNSTABLE", 400.0)[0]
+    unstable = compare_published([_entry()], {**metrics, "spectral_radius": 15.8}, "loop UNSTABLE", 400.0, EXPLAINERS)[0]
     assert "UNSTABLE" in unstable["reason"] and "minimum pulse" not in unstable["reason"]
 
 

@@ -40,7 +40,7 @@ def test_paper_cases_unstable_at_the_published_period():
     # SPEC §1: the published T = 0.5 s is not stable; the mode lives on satellite 1's y axis.
     for name in ("consensus-sync-a", "consensus-sync-b", "consensus-track"):
         built = prepare(load_scenario(name))
-        st = built.stability
+        st = built.checks["sampled-data"].detail
         assert st.spectral_radius > 10.0
         assert st.max_stable_period_s < 0.1
         assert st.dominant == (0, 1)
@@ -49,7 +49,7 @@ def test_paper_cases_unstable_at_the_published_period():
 
 def test_stable_variants_lie_inside_their_bounds():
     for name in ("consensus-sync-a-stable", "consensus-sync-b-stable", "consensus-track-stable"):
-        st = prepare(load_scenario(name)).stability
+        st = prepare(load_scenario(name)).checks["sampled-data"].detail
         assert st.stable and st.period_s < 0.5 * st.max_stable_period_s
 
 
@@ -58,7 +58,7 @@ def test_nonlinear_loop_confirms_the_bound(factor, grows):
     # Ideal (unsaturated) torque, a small disagreement: just inside the bound it decays, just
     # outside it grows. The engine shares no code with the linear analysis.
     base = prepare(load_scenario("consensus-sync-b-stable"))
-    t_max = base.stability.max_stable_period_s
+    t_max = base.checks["sampled-data"].detail.max_stable_period_s
     period = round(factor * t_max, 6)
     overrides = [
         "actuators.kind=ideal-torque", f"controller.period_s={period}", f"sim.dt_s={period / 10}",
@@ -103,7 +103,7 @@ def test_one_spacecraft_and_unsaturated_messages():
         "controller.kind=consensus-sync", "controller.period_s=0.001", "controller.alpha=1.0", "controller.beta=2.0",
         "network.kind=ring", "sim.t_final_s=1.0",
     ]))
-    assert built.stability is None
+    assert "sampled-data" not in built.checks
     # An unstable loop with an unsaturated actuator diverges rather than settling into a cycle.
     built = prepare(load_scenario("consensus-sync-a", ["actuators.kind=ideal-torque"]))
-    assert "expect divergence" in built.stability_note
+    assert "expect divergence" in built.checks["sampled-data"].note

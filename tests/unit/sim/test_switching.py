@@ -57,7 +57,7 @@ def test_switch_times_are_validated():
 
 def test_stability_check_reports_the_worst_graph():
     built = prepare(load_scenario("consensus-sync-link-failure"))
-    ring_only = prepare(load_scenario("consensus-sync-a-stable")).stability
-    complete_only = prepare(load_scenario("consensus-sync-b-stable")).stability
-    assert built.stability.spectral_radius == max(ring_only.spectral_radius, complete_only.spectral_radius)
-    assert built.stability.max_stable_period_s == min(ring_only.max_stable_period_s, complete_only.max_stable_period_s)
+    ring_only = prepare(load_scenario("consensus-sync-a-stable")).checks["sampled-data"].detail
+    complete_only = prepare(load_scenario("consensus-sync-b-stable")).checks["sampled-data"].detail
+    assert built.checks["sampled-data"].detail.spectral_radius == max(ring_only.spectral_radius, complete_only.spectral_radius)
+    assert built.checks["sampled-data"].detail.max_stable_period_s == min(ring_only.max_stable_period_s, complete_only.max_stable_period_s)

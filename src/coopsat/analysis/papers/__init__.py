@@ -1,0 +1,36 @@
+"""Paper analysis modules: each adds the metrics one source paper defines and its explanations
+of differences from the published numbers.
+
+A plug-in names its paper's module (:attr:`coopsat.plugins.Plugin.analysis`); a run imports the
+modules of the plug-ins it uses. A module provides
+
+* ``metrics(ds, built) -> dict`` — named numbers (unit at the end of each name);
+* ``EXPLAINERS`` — ``{metric name or "_suffix": (quantity, metrics) -> str or None}``.
+
+So :mod:`coopsat.analysis.metrics` and :mod:`coopsat.analysis.compare` stay generic as papers
+are added.
+"""
+
+import importlib
+
+
+def paper_modules(built):
+    """The analysis modules of a built run's plug-ins (each once, in plug-in order)."""
+    names = dict.fromkeys(p.analysis for p in built.plugins if p.analysis)
+    return [importlib.import_module(name) for name in names]
+
+
+def paper_metrics(ds, built):
+    """Every paper module's metrics of a finished run."""
+    m = {}
+    for module in paper_modules(built):
+        m.update(module.metrics(ds, built))
+    return m
+
+
+def explainers(built):
+    """The paper modules' explanations, merged."""
+    out = {}
+    for module in paper_modules(built):
+        out.update(module.EXPLAINERS)
+    return out

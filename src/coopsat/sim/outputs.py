@@ -1,0 +1,27 @@
+"""Recorded plant quantities: how the state appears in a run's dataset.
+
+The parts (controllers, actuators, sensors, …) describe their own outputs
+(``output_specs()``); this module describes the plant's.
+"""
+
+from coopsat._parts import OutputSpec
+
+_STATE_OUTPUTS = {
+    "q": OutputSpec(("q_component",), "1", "", "attitude quaternion of body relative to inertial, scalar first"),
+    "omega": OutputSpec(("component",), "rad/s", "body", "body angular rate relative to inertial"),
+    "h_wheels": OutputSpec(("component",), "N m s", "body", "angular momentum of the wheels relative to the body"),
+    "r_eci": OutputSpec(("component",), "m", "ECI", "position"),
+    "v_eci": OutputSpec(("component",), "m/s", "ECI", "velocity"),
+}
+
+
+def state_output_specs(wheels, orbit):
+    """Specs of the recorded state: attitude and rate always; wheel momentum when wheels turn;
+    position and velocity when the run has an orbit.
+
+    Returns
+    -------
+    dict of str -> OutputSpec
+    """
+    keys = ["q", "omega"] + (["h_wheels"] if wheels else []) + (["r_eci", "v_eci"] if orbit else [])
+    return {k: _STATE_OUTPUTS[k] for k in keys}

@@ -86,9 +86,9 @@ class IdealNetwork:
         return ()
 
     def deliver(self, tick, outbox, state, key):
-        """Inbox of this period; the outbox is component-major ``(k, n)``."""
+        """(inbox, state, record) of this period; the outbox is component-major ``(k, n)``."""
         msg = deliver_ideal(outbox, self.src, spacecraft_axis=-1)
-        return Inbox(msg, self.weight[active_row(self.switch_ticks, tick)], self.dst), state
+        return Inbox(msg, self.weight[active_row(self.switch_ticks, tick)], self.dst), state, {}
 
     def output_specs(self):
         return {}

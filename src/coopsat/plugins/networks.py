@@ -3,7 +3,9 @@ neighbours over the graph of ``[network]`` (and its ``[[network.switches]]``).""
 
 from typing import Literal
 
-from coopsat.plugins import Plugin, register
+from pydantic import Field, model_validator
+
+from coopsat.plugins import DesignError, Plugin, register
 from coopsat.plugins.tables import Table
 
 
@@ -23,3 +25,113 @@ def _build_ideal(table, ctx):
 
 
 register(Plugin("network", "ideal", IdealDelivery, _build_ideal))
+
+
+class RandomDelay(Table):
+    """``random_delay``: the random single-hop delay τ(t) of SPEC §3, piecewise constant."""
+
+    min_s: float = Field(0.0, ge=0, description="Smallest τ, s (whole control periods).")
+    max_s: float = Field(ge=0, description="Largest τ (its bound), s (whole control periods).")
+    hold_min_s: float = Field(gt=0, description="Shortest time between two draws of τ, s (whole control periods).")
+    hold_max_s: float = Field(gt=0, description="Longest time between two draws of τ, s (whole control periods).")
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        if self.min_s > self.max_s:
+            raise ValueError(f"min_s ({self.min_s:g} s) is above the bound max_s ({self.max_s:g} s)")
+        if self.hold_min_s > self.hold_max_s:
+            raise ValueError(f"hold_min_s ({self.hold_min_s:g} s) is above hold_max_s ({self.hold_max_s:g} s)")
+        return self
+
+
+class DelayedDelivery(Table):
+    """``kind = "delayed"``: per-link delays, multi-hop relaying, a random τ(t), drop-outs."""
+
+    kind: Literal["delayed"]
+    delay_s: float = Field(0.0, ge=0, description="Fixed delay of every hop, s (whole control periods).")
+    link_delays: list[tuple[str, str, float]] = Field(
+        [], description="[transmitter, receiver, delay_s] per direction of a link: overrides delay_s there."
+    )
+    relay: bool = Field(
+        False,
+        description="Every spacecraft hears every one it can reach, over the shortest directed path "
+        "(delays summed per hop); false: direct neighbours only.",
+    )
+    relay_weight: float = Field(1.0, gt=0, description="Weight of a pair heard over more than one hop.")
+    random_delay: RandomDelay | None = Field(None, description="Random single-hop delay τ(t) added per hop.")
+    dropout_probability: float = Field(0.0, ge=0, lt=1, description="Probability that one hop loses a message.")
+    on_loss: Literal["hold", "drop"] = Field(
+        "hold", description="A lost message: the receiver holds the last one it got (hold) or drops the term (drop)."
+    )
+
+
+def _periods(value_s, ctx, where):
+    """A time as a whole number of control periods (0 allowed), or a DesignError naming ``where``."""
+    k = round(value_s / ctx.period_s)
+    if abs(value_s - k * ctx.period_s) > 1e-9 * max(value_s, ctx.period_s):
+        raise DesignError(
+            f"{where} ({value_s:g} s) must be a whole number of control periods ({ctx.period_s:g} s): "
+            "messages are exchanged once per period"
+        )
+    return k
+
+
+MAX_BUFFER_PERIODS = 1_000_000
+"""Most periods of history the delay buffer may hold (memory grows as buffer × n × fields)."""
+
+
+def _build_delayed(table, ctx):
+    import numpy as np
+
+    from coopsat.network import routing, topology
+    from coopsat.network.delay import DelayedNetwork
+    from coopsat.sim.system import as_arrays
+
+    where = "network.delivery"
+    index = {name: k for k, name in enumerate(ctx.names)}
+    default = _periods(table.delay_s, ctx, f"{where}.delay_s")
+    overrides = []
+    union = np.any([a > 0 for a in ctx.adjacencies], axis=0)
+    for k, (src, dst, d) in enumerate(table.link_delays):
+        for end in (src, dst):
+            if end not in index:
+                raise DesignError(f"{where}.link_delays[{k}]: unknown spacecraft '{end}' (known: {', '.join(ctx.names)})")
+        if not union[index[dst], index[src]]:
+            raise DesignError(f"{where}.link_delays[{k}]: there is no link {src} -> {dst} in any graph of the run")
+        overrides.append((index[src], index[dst], _periods(d, ctx, f"{where}.link_delays[{k}] delay")))
+    rd = table.random_delay
+    tau = (0, 0, 1, 1) if rd is None else tuple(
+        _periods(getattr(rd, f), ctx, f"{where}.random_delay.{f}") for f in ("min_s", "max_s", "hold_min_s", "hold_max_s")
+    )
+    epochs = []
+    for place, a in zip(ctx.graph_places, ctx.adjacencies):
+        c = routing.link_delays(a, default, overrides)
+        routes = routing.relayed_routes(a, c, table.relay_weight) if table.relay else routing.direct_routes(a, c)
+        if table.relay and epochs:
+            lost = routing.lost_route(epochs[0], routes, ctx.names)
+            if lost is not None:
+                raise DesignError(
+                    f"{place}: no route from {lost[1]} to {lost[0]} is left after this switch, so relaying cannot deliver "
+                    "what it delivered before; keep a path between them, or relay = false"
+                )
+        epochs.append(routes)
+    links = topology.links_for_schedule([r.weight for r in epochs])
+    pick = lambda m: np.stack([getattr(r, m)[links.dst, links.src] for r in epochs])  # noqa: E731
+    hops, fixed = pick("hops"), pick("delay_periods")
+    largest = int((fixed + hops * tau[1]).max(initial=0))
+    if largest + 1 > MAX_BUFFER_PERIODS:
+        raise DesignError(
+            f"{where}: the largest delay is {largest} control periods; more than {MAX_BUFFER_PERIODS} cannot be buffered"
+        )
+    loss = 1.0 - (1.0 - table.dropout_probability) ** hops
+    return DelayedNetwork(
+        *as_arrays((links.src, links.dst, links.weight, hops, fixed, loss, ctx.switch_ticks, *tau)),
+        period_ticks=round(ctx.period_s / ctx.dt_s),
+        buffer_periods=largest + 1,
+        random=rd is not None and tau[1] > 0,
+        lossy=table.dropout_probability > 0,
+        hold=table.on_loss == "hold",
+    )
+
+
+register(Plugin("network", "delayed", DelayedDelivery, _build_delayed))

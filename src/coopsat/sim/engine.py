@@ -194,7 +194,7 @@ def _command(system, x, st, tick):
     """Sense, deliver, control and actuate at the start of a period.
 
     Returns (pulses, states, record): one pulse per actuator, the parts' new states, and what
-    the controller records at this instant.
+    the network and the controller record at this instant.
     """
     t = tick * system.dt_s
     frame = tick // system.structure.ticks_per_period
@@ -202,8 +202,11 @@ def _command(system, x, st, tick):
     y, st = _sense(system, x, st, frame, key)
     ctrl = system.controller
     outbox = ctrl.outbox(y, st["controller"])
-    inbox, net_state = system.network.deliver(tick, outbox, st["network"], jax.random.fold_in(key, _KEY_NETWORK))
+    inbox, net_state, net_record = system.network.deliver(
+        tick, outbox, st["network"], jax.random.fold_in(key, _KEY_NETWORK)
+    )
     cmd, ctrl_state, record = ctrl.step(t, y, inbox, st["controller"], jax.random.fold_in(key, _KEY_CONTROLLER))
+    record = {**net_record, **record}
     pulses, act_states = [], []
     for j, (a, a_state) in enumerate(zip(system.actuators, st["actuators"])):
         command = cmd[a.command] if a.command in cmd else jnp.zeros_like(x.omega_b)

@@ -29,6 +29,7 @@ PLUGIN_MODULES = (
     "coopsat.plugins.consensus",
     "coopsat.plugins.torque_actuators",
     "coopsat.plugins.networks",
+    "coopsat.plugins.disturbances",
 )
 """Every module that registers plug-ins (one line per module)."""
 

@@ -194,7 +194,7 @@ def _command(system, x, st, tick):
     """Sense, deliver, control and actuate at the start of a period.
 
     Returns (pulses, states, record): one pulse per actuator, the parts' new states, and what
-    the network and the controller record at this instant.
+    the network, the controller and the disturbances record at this instant.
     """
     t = tick * system.dt_s
     frame = tick // system.structure.ticks_per_period
@@ -217,6 +217,8 @@ def _command(system, x, st, tick):
         d.update(t, x, d_state, jax.random.fold_in(key, _KEY_DISTURBANCES + j))
         for j, (d, d_state) in enumerate(zip(system.disturbances, st["disturbances"]))
     )
+    for d, d_state in zip(system.disturbances, d_states):
+        record = {**record, **d.record(t, x, d_state)}
     st = {**st, "controller": ctrl_state, "network": net_state, "actuators": tuple(act_states), "disturbances": d_states}
     return tuple(pulses), st, record
 

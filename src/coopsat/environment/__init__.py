@@ -1,0 +1,1 @@
+"""Environment: disturbance torques and forces acting on the spacecraft (in-loop parts)."""

@@ -51,6 +51,9 @@ class IdealTorque:
     def plan(self, command, x, state, period_s, key):
         return ideal_torque_pulse(command, period_s, self.torque_max_nm), state
 
+    def record(self, x, state):
+        return {}
+
     def account(self, pulse):
         return torque_impulse_increments(pulse)
 

@@ -85,6 +85,9 @@ class PwmThrusters:
     def plan(self, command, x, state, period_s, key):
         return pwm_pulse(command, period_s, self.torque_max_nm, self.min_pulse_s), state
 
+    def record(self, x, state):
+        return {}
+
     def account(self, pulse):
         """Impulse counters, and per thruster the on-time and whether it fired this period."""
         on = thruster_on_time_s(pulse, 0)

@@ -14,6 +14,7 @@ import jax.numpy as jnp
 
 from coopsat.dynamics.rigid_body import omega_dot_b
 from coopsat.dynamics.translational import j2_accel, two_body_accel
+from coopsat.geometry.frames import lvlh_vector_to_eci
 from coopsat.geometry.quaternion import quat_kinematics, quat_rotate
 
 
@@ -67,15 +68,29 @@ class PlantParams(NamedTuple):
     chief: jnp.ndarray
 
 
-WRENCH_CHANNELS = ("torque_b", "wheel_torque_b", "force_eci", "force_b")
+WRENCH_CHANNELS = ("torque_b", "wheel_torque_b", "force_eci", "force_b", "force_lvlh")
 """What actuators and disturbances may act through, each (3, n) (component-major in the loop):
 
 * ``torque_b`` — external torque on the body (thrusters, magnetorquers, environment), N·m;
 * ``wheel_torque_b`` — rate of change of the wheels' momentum, body components, N·m (the
   body feels its reaction);
 * ``force_eci`` — force in ECI components, N;
-* ``force_b`` — force in body components (body-fixed thrusters), N.
+* ``force_b`` — force in body components (body-fixed thrusters), N;
+* ``force_lvlh`` — force in the axes of the chief's LVLH frame (``params.chief``;
+  :mod:`coopsat.geometry.frames`), N: thrusters held aligned with the chief's LVLH axes by the
+  attitude control (the formation-flying papers' assumption). It is turned into ECI inside the
+  derivative with the chief's current position and velocity (each RK4 stage), so it follows
+  the frame as it turns; the chief's own LVLH force is in its own frame.
 """
+
+_FORCE_CHANNELS = ("force_eci", "force_b", "force_lvlh")
+
+
+def _chief(a, chief, axis):
+    """The chief's row of a per-spacecraft vector field, kept broadcastable against it:
+    (3, n) -> (3, 1) component-major, (n, 3) -> (1, 3)."""
+    sc_axis = 1 if axis == 0 else 0
+    return jnp.expand_dims(jnp.take(a, chief, axis=sc_axis), sc_axis)
 
 
 def plant_derivative(x, wrench, params, gravity, axis=-1):
@@ -124,6 +139,9 @@ def plant_derivative(x, wrench, params, gravity, axis=-1):
         force = wrench.get("force_eci", zeros3)
         if "force_b" in wrench:
             force = force + quat_rotate(x.q_bi, wrench["force_b"], axis)
-        if "force_eci" in wrench or "force_b" in wrench:
+        if "force_lvlh" in wrench:
+            r_c, v_c = _chief(x.r_eci, params.chief, axis), _chief(x.v_eci, params.chief, axis)
+            force = force + lvlh_vector_to_eci(r_c, v_c, wrench["force_lvlh"], axis)
+        if any(c in wrench for c in _FORCE_CHANNELS):
             dv = dv + force / params.mass_kg
     return PlantState(dq, dw, dh, dr, dv)

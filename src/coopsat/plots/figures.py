@@ -103,7 +103,8 @@ def torque_figure(ds, spacecraft=0):
     Parameters
     ----------
     ds : xarray.Dataset
-        Run record with ``torque`` and ``torque_command`` (time, spacecraft, component), N·m.
+        Run record with ``torque`` and, when a controller commands torque, ``torque_command``
+        (time, spacecraft, component), N·m.
     spacecraft : int or str
         Index along ``spacecraft`` or the spacecraft's name.
 
@@ -118,13 +119,14 @@ def torque_figure(ds, spacecraft=0):
     names = _names(ds)
     i = names.index(spacecraft) if isinstance(spacecraft, str) else int(spacecraft)
     torque = _values(ds, "torque", "time", "spacecraft", "component")[:, i]
-    command = _values(ds, "torque_command", "time", "spacecraft", "component")[:, i]
+    command = _values(ds, "torque_command", "time", "spacecraft", "component")[:, i] if "torque_command" in ds else None
     t = ds["time"].values
     fig, axes = _stacked(ds, 3, f"torque of {names[i]}")
     limit = 1.15 * np.abs(torque).max()
     for k, (ax, comp) in enumerate(zip(axes, ds["component"].values)):
         ax.plot(t, torque[:, k], drawstyle="steps-post", label="applied")
-        ax.plot(t, command[:, k], "--", lw=0.8, color="k", label="commanded")
+        if command is not None:
+            ax.plot(t, command[:, k], "--", lw=0.8, color="k", label="commanded")
         if limit > 0.0:
             ax.set_ylim(-limit, limit)
         ax.set_ylabel(f"τ_{comp} [{ds['torque'].attrs['units']}]")
@@ -194,14 +196,14 @@ def standard_figures(ds, attitude_threshold_deg=None, rate_threshold_rad_s=None)
     Returns
     -------
     dict of str to matplotlib.figure.Figure
-        ``attitude``, ``rates``, ``torque_<first spacecraft name>``, ``sync_error``.
+        ``attitude``, ``rates``, ``torque_<first spacecraft name>`` (when a torque acts),
+        ``sync_error``.
     """
-    return {
-        "attitude": attitude_figure(ds),
-        "rates": rate_figure(ds),
-        f"torque_{_names(ds)[0]}": torque_figure(ds, 0),
-        "sync_error": sync_error_figure(ds, attitude_threshold_deg, rate_threshold_rad_s),
-    }
+    figures = {"attitude": attitude_figure(ds), "rates": rate_figure(ds)}
+    if "torque" in ds:
+        figures[f"torque_{_names(ds)[0]}"] = torque_figure(ds, 0)
+    figures["sync_error"] = sync_error_figure(ds, attitude_threshold_deg, rate_threshold_rad_s)
+    return figures
 
 
 def save_figures(figures, directory, dpi=120):

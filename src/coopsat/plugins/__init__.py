@@ -28,8 +28,12 @@ PLUGIN_MODULES = (
     "coopsat.plugins.free",
     "coopsat.plugins.consensus",
     "coopsat.plugins.torque_actuators",
+    "coopsat.plugins.force_actuators",
+    "coopsat.plugins.wheel_actuators",
+    "coopsat.plugins.pid",
     "coopsat.plugins.networks",
     "coopsat.plugins.disturbances",
+    "coopsat.plugins.sensors",
 )
 """Every module that registers plug-ins (one line per module)."""
 

@@ -108,7 +108,7 @@ def stability_message(st, names, saturates=True):
 def _saturates(scenario):
     """Every actuator of the run saturates (its torque is bounded)."""
     acts = scenario.actuator_list
-    return bool(acts) and all(np.isfinite(getattr(a, "torque_max_nm", np.inf)) for a in acts)
+    return bool(acts) and all(np.all(np.isfinite(getattr(a, "torque_max_nm", np.inf))) for a in acts)
 
 
 def check_sampled_data(table, ctx):

@@ -194,21 +194,25 @@ def _command(system, x, st, tick):
     """Sense, deliver, control and actuate at the start of a period.
 
     Returns (pulses, states, record): one pulse per actuator, the parts' new states, and what
-    the network, the controller and the disturbances record at this instant.
+    is recorded at this instant: each sensor's reading (``measured_<quantity>``), and what the
+    network, the controller, the actuators (from their state at the period's start) and the
+    disturbances record.
     """
     t = tick * system.dt_s
     frame = tick // system.structure.ticks_per_period
     key = jax.random.fold_in(system.key, frame)
     y, st = _sense(system, x, st, frame, key)
+    measured = {f"measured_{s.quantity}": y[s.quantity] for s in system.sensors}
     ctrl = system.controller
     outbox = ctrl.outbox(y, st["controller"])
     inbox, net_state, net_record = system.network.deliver(
         tick, outbox, st["network"], jax.random.fold_in(key, _KEY_NETWORK)
     )
     cmd, ctrl_state, record = ctrl.step(t, y, inbox, st["controller"], jax.random.fold_in(key, _KEY_CONTROLLER))
-    record = {**net_record, **record}
+    record = {**measured, **net_record, **record}
     pulses, act_states = [], []
     for j, (a, a_state) in enumerate(zip(system.actuators, st["actuators"])):
+        record = {**record, **a.record(x, a_state)}
         command = cmd[a.command] if a.command in cmd else jnp.zeros_like(x.omega_b)
         pulse, a_state = a.plan(command, x, a_state, system.period_s, jax.random.fold_in(key, _KEY_ACTUATORS + j))
         pulses.append(pulse)
@@ -349,9 +353,10 @@ def output_specs(system):
     -------
     dict of str -> coopsat._parts.OutputSpec
     """
-    from coopsat.sim.outputs import state_output_specs
+    from coopsat.sim.outputs import measured_output_spec, state_output_specs
 
     specs = state_output_specs(_wheels(system), system.structure.gravity != "none")
+    specs.update({f"measured_{s.quantity}": measured_output_spec(s.quantity) for s in system.sensors})
     for p in (system.controller, system.network, *system.sensors, *system.actuators, *system.disturbances):
         specs.update(p.output_specs())
     return specs

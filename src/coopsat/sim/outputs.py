@@ -25,3 +25,15 @@ def state_output_specs(wheels, orbit):
     """
     keys = ["q", "omega"] + (["h_wheels"] if wheels else []) + (["r_eci", "v_eci"] if orbit else [])
     return {k: _STATE_OUTPUTS[k] for k in keys}
+
+
+def measured_output_spec(quantity):
+    """Spec of a sensor's reading of a state quantity (``"q"``, ``"omega"``, …): the
+    quantity's own dims, units and frame.
+
+    Returns
+    -------
+    OutputSpec
+    """
+    spec = _STATE_OUTPUTS[quantity]
+    return spec._replace(long_name=f"{spec.long_name}, as measured by its sensor at the sample")

@@ -115,3 +115,12 @@ def test_standard_and_save_figures(ds, tmp_path):
     assert [p.name for p in paths] == [f"{stem}.png" for stem in figures]
     for path in paths:
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_figures_without_a_commanded_or_any_torque():
+    # No controller: no torque_command; force actuators only: no torque at all.
+    free = make_dataset(tracking=False, thrusters=False).drop_vars("torque_command")
+    assert set(standard_figures(free)) == {"attitude", "rates", "torque_sat1", "sync_error"}
+    assert len(torque_figure(free).axes[0].lines) == 1  # the applied torque only
+    forces_only = free.drop_vars("torque")
+    assert set(standard_figures(forces_only)) == {"attitude", "rates", "sync_error"}

@@ -1,0 +1,172 @@
+"""Force actuators of the formation-flying papers as in-loop parts: impulse-bit MEMS thrusters
+(SPEC §2) and proportional thrusters with a dead zone (SPEC §4).
+
+Both act through a force channel of :data:`coopsat.dynamics.plant.WRENCH_CHANNELS`: the chief's
+LVLH axes (``force_lvlh``: thrusters kept aligned with the chief's LVLH frame by the attitude
+control) or the body axes (``force_b``). A :class:`~coopsat.actuators.pulses.Pulse` carries a
+force here: its field ``level_nm`` holds newtons.
+
+Counters (cumulative from t = 0, per axis of the actuator's frame): ``force_impulse``, the signed
+impulse ``∫ F dt`` (N·s), and ``abs_force_impulse``, ``∫ |F| dt`` (N·s, proportional to the
+propellant used); the impulse-bit thrusters also count ``impulse_bits``, the number of bits fired.
+The mean output ``force`` is the mean force applied over the record interval (from
+``force_impulse``).
+"""
+
+from coopsat import _jax  # noqa: F401
+
+import jax.numpy as jnp
+
+from coopsat._parts import OutputSpec, part
+from coopsat.actuators.impulse_bits import bits_pulse, quantise_impulse
+from coopsat.actuators.pulses import Pulse
+from coopsat.actuators.thrusters import deadzone_thrust
+
+FRAMES = {"lvlh": ("force_lvlh", "LVLH"), "body": ("force_b", "body")}
+"""Scenario ``frame`` -> (wrench channel, frame label of the recorded vectors)."""
+
+
+def force_outputs(frame):
+    """Recorded outputs shared by every force actuator, vectors in ``frame`` (``"lvlh"``/``"body"``).
+
+    Returns
+    -------
+    dict of str -> OutputSpec
+        ``force_impulse``, ``abs_force_impulse`` (cumulative, N s) and ``force`` (mean, N).
+    """
+    label = FRAMES[frame][1]
+    return {
+        "force_impulse": OutputSpec(
+            ("component",), "N s", label,
+            "cumulative signed impulse of the force actuators per axis, from t = 0 to the sample",
+        ),
+        "abs_force_impulse": OutputSpec(
+            ("component",), "N s", label,
+            "cumulative absolute impulse of the force actuators per axis (propellant effort), from t = 0 to the sample",
+        ),
+        "force": OutputSpec(
+            ("component",), "N", label,
+            "mean force actually applied over the record interval starting at the sample "
+            "(last sample: over the control period that would follow)",
+        ),
+    }
+
+
+def force_impulse_increments(pulse):
+    """Per-period increments of a force pulse's counters, N·s, (3, n) each."""
+    return {"force_impulse": pulse.level_nm * pulse.t_off_s, "abs_force_impulse": jnp.abs(pulse.level_nm) * pulse.t_off_s}
+
+
+@part(static=("frame", "command"))
+class ImpulseBitThrusters:
+    """MEMS thrusters firing whole impulse bits, one ± pair per axis (SPEC §2).
+
+    Each period the commanded force ``f`` (N, per axis) is turned into the wanted impulse
+    ``f·T``, quantised to whole bits with the rounding error carried to the next period
+    (:func:`~coopsat.actuators.impulse_bits.quantise_impulse`), and the bits are fired as one
+    pulse of ``±thrust_n`` from the period start, ``|bits|·bit/thrust`` long
+    (:func:`~coopsat.actuators.impulse_bits.bits_pulse`). Pulsed: the engine integrates the
+    switch-off exactly.
+
+    Attributes
+    ----------
+    bit_ns : scalar
+        Impulse of one bit, N·s.
+    thrust_n : scalar
+        Force of one firing thruster, N.
+    max_bits : scalar
+        Most bits one axis fires per period (float; ``max_bits·bit/thrust ≤ T``).
+    frame : {"lvlh", "body"}
+        Static: the axes of the thrusters (channel ``force_lvlh`` or ``force_b``).
+    command : str
+        Static: the controller command it executes (a force, N, in ``frame``).
+
+    Notes
+    -----
+    State: the carried remainder (3, n), N·s, within ±bit/2.
+    """
+
+    bit_ns: jnp.ndarray
+    thrust_n: jnp.ndarray
+    max_bits: jnp.ndarray
+    frame: str = "lvlh"
+    command: str = "force_lvlh"
+
+    pulsed = True
+    mean_output = ("force", "force_impulse")
+
+    @property
+    def channel(self):
+        return FRAMES[self.frame][0]
+
+    def init(self, n):
+        return jnp.zeros((3, n))
+
+    def plan(self, command, x, state, period_s, key):
+        bits, remainder = quantise_impulse(command * period_s, state, self.bit_ns, self.max_bits)
+        level, t_on = bits_pulse(bits, self.bit_ns, self.thrust_n)
+        return Pulse(level, t_on), remainder
+
+    def record(self, x, state):
+        return {}
+
+    def account(self, pulse):
+        """Impulse counters, and the whole bits fired per axis (either sign)."""
+        # level·t_on = bits·bit to the last bit of the mantissa, so rounding recovers the count.
+        bits = jnp.round(jnp.abs(pulse.level_nm) * pulse.t_off_s / self.bit_ns)
+        return {**force_impulse_increments(pulse), "impulse_bits": bits}
+
+    def output_specs(self):
+        return {
+            **force_outputs(self.frame),
+            "impulse_bits": OutputSpec(
+                ("component",), "1", FRAMES[self.frame][1],
+                "cumulative number of impulse bits fired per axis (either direction), from t = 0 to the sample",
+            ),
+        }
+
+
+@part(static=("frame", "command"))
+class ProportionalThrusters:
+    """Proportional thrusters with a dead zone, one per axis (SPEC §4: 1–100 mN).
+
+    The commanded force per axis is held over the period: zero when ``|f| < force_min_n``,
+    clipped to ``±force_max_n`` (:func:`~coopsat.actuators.thrusters.deadzone_thrust`).
+
+    Attributes
+    ----------
+    force_min_n, force_max_n : scalar
+        Smallest and largest force per axis, N.
+    frame : {"lvlh", "body"}
+        Static: the axes of the thrusters.
+    command : str
+        Static: the controller command it executes (a force, N, in ``frame``).
+    """
+
+    force_min_n: jnp.ndarray
+    force_max_n: jnp.ndarray
+    frame: str = "lvlh"
+    command: str = "force_lvlh"
+
+    pulsed = False
+    mean_output = ("force", "force_impulse")
+
+    @property
+    def channel(self):
+        return FRAMES[self.frame][0]
+
+    def init(self, n):
+        return ()
+
+    def plan(self, command, x, state, period_s, key):
+        level = deadzone_thrust(command, self.force_min_n, self.force_max_n)
+        return Pulse(level, jnp.full_like(level, period_s)), state
+
+    def record(self, x, state):
+        return {}
+
+    def account(self, pulse):
+        return force_impulse_increments(pulse)
+
+    def output_specs(self):
+        return force_outputs(self.frame)

@@ -1,0 +1,135 @@
+"""Reaction wheels as an in-loop part (SPEC §5): momentum exchange with the body.
+
+The controller commands the torque ``u`` it wants on the body (``torque_b``); each wheel's
+motor torque ``τ`` is the minimum-norm solution of ``−G τ = u`` within the torque and speed
+limits (:func:`~coopsat.actuators.wheels.wheel_motor_torque`), held over the control period.
+The part acts through the channel ``wheel_torque_b`` with level ``G τ`` (the rate of the
+wheels' momentum in body axes): the plant integrates ``h_wheels_b`` and the body feels
+``−G τ`` (``I ω̇ + ω × (I ω + h_w) = τ_ext − ḣ_w``), so the formation's inertial angular
+momentum ``C(q)(I ω + h_w)`` is untouched by the wheels.
+
+Sign conventions: ``h_k`` (N·m·s) is wheel k's angular momentum about its spin axis ``g_k`` in
+inertial space, ``h_k = I_k (Ω_k + g_k·ω)`` with ``Ω_k`` its speed relative to the body (rad/s,
+positive when the wheel turns right-handed about ``g_k``): the motor torque changes exactly
+that, ``ḣ_k = τ_k`` (``τ_k > 0`` spins wheel k up along ``g_k``). The body inertia of the run
+is then the spacecraft's *without* the wheels' spin-axis inertia (Basilisk's ``IHubPntBc_B``
+minus ``Σ I_k g_k g_kᵀ``; checked against Basilisk's reaction wheels,
+tests/reference/test_basilisk_wheels.py). The speed limit applies to ``Ω_k``.
+
+State: per-wheel momentum (m, n), advanced exactly by ``τ·T`` each period. It starts at
+``G⁺ h_wheels_b_nms`` of each spacecraft (``G⁺`` the Moore–Penrose pseudo-inverse: the
+smallest per-wheel momenta that make up the body-axis momentum; ``G G⁺ = 1`` since ``G`` has
+rank 3, so the part and the plant agree).
+"""
+
+from typing import NamedTuple
+
+from coopsat import _jax  # noqa: F401
+
+import jax.numpy as jnp
+
+from coopsat._parts import OutputSpec, part
+from coopsat.actuators.pulses import IMPULSE_OUTPUTS
+from coopsat.actuators.wheels import wheel_motor_torque
+
+
+class WheelPulse(NamedTuple):
+    """A :class:`~coopsat.actuators.pulses.Pulse` (same first two fields, so the engine reads
+    it as one) that also carries each wheel's motor torque for the counters.
+
+    Attributes
+    ----------
+    level_nm : (3, n)
+        ``G τ``, rate of the wheels' momentum in body axes, N·m.
+    t_off_s : (3, n)
+        The control period (the torque is held over it).
+    tau_nm : (m, n)
+        Motor torque of each wheel, N·m.
+    """
+
+    level_nm: jnp.ndarray
+    t_off_s: jnp.ndarray
+    tau_nm: jnp.ndarray
+
+
+def wheel_labels(m):
+    """Labels of the ``wheel`` dimension: ``w1`` … ``wm`` in the order of ``spin_axes_b``."""
+    return tuple(f"w{k + 1}" for k in range(m))
+
+
+@part(static=("command",))
+class ReactionWheels:
+    """Reaction-wheel part: m wheels with spin axes ``G`` (3, m), the same on every spacecraft.
+
+    Attributes
+    ----------
+    spin_axes_b : (3, m)
+        ``G``: unit spin axes as columns, body components.
+    spin_axes_pinv : (m, 3)
+        ``G⁺``.
+    inertia_kgm2 : (m, 1)
+        Each wheel's inertia about its spin axis, kg·m².
+    torque_max_nm : (m, 1)
+        Motor torque limit per wheel, N·m.
+    h_max_nms : (m, 1)
+        Momentum limit per wheel, ``I_k ω_max,k``, N·m·s.
+    h0_nms : (m, n)
+        Initial momentum of each wheel, N·m·s.
+    command : str
+        Static: the controller command it executes (body torque, N·m).
+    """
+
+    spin_axes_b: jnp.ndarray
+    spin_axes_pinv: jnp.ndarray
+    inertia_kgm2: jnp.ndarray
+    torque_max_nm: jnp.ndarray
+    h_max_nms: jnp.ndarray
+    h0_nms: jnp.ndarray
+    command: str = "torque_b"
+
+    channel = "wheel_torque_b"
+    pulsed = False
+    mean_output = ("torque", "angular_impulse")
+
+    def init(self, n):
+        return self.h0_nms
+
+    def _relative_momentum(self, x, state):
+        """``I_k Ω_k``: each wheel's momentum relative to the body (what its speed limit bounds)."""
+        return state - self.inertia_kgm2 * jnp.einsum("im,in->mn", self.spin_axes_b, x.omega_b)
+
+    def plan(self, command, x, state, period_s, key):
+        tau, h_dot_b = wheel_motor_torque(
+            command, self._relative_momentum(x, state), self.spin_axes_b, self.spin_axes_pinv,
+            self.torque_max_nm, self.h_max_nms,
+        )
+        return WheelPulse(h_dot_b, jnp.full_like(h_dot_b, period_s), tau), state + tau * period_s
+
+    def record(self, x, state):
+        """Each wheel's speed relative to the body at the sample, rad/s."""
+        return {"wheel_speed": self._relative_momentum(x, state) / self.inertia_kgm2}
+
+    def account(self, pulse):
+        """The body's angular impulse (it feels ``−G τ``), and each wheel's motor impulse."""
+        body = -pulse.level_nm * pulse.t_off_s
+        wheel = pulse.tau_nm * pulse.t_off_s[:1]
+        return {
+            "angular_impulse": body,
+            "impulse": jnp.abs(body),
+            "wheel_angular_impulse": wheel,
+        }
+
+    def output_specs(self):
+        wheels = (("wheel", wheel_labels(self.spin_axes_b.shape[-1])),)
+        return {
+            **IMPULSE_OUTPUTS,
+            "wheel_angular_impulse": OutputSpec(
+                ("wheel",), "N m s", "",
+                "cumulative motor torque impulse of each wheel (= change of its momentum along its spin axis), "
+                "from t = 0 to the sample",
+                coords=wheels,
+            ),
+            "wheel_speed": OutputSpec(
+                ("wheel",), "rad/s", "", "speed of each wheel relative to the body at the sample", coords=wheels
+            ),
+        }

@@ -1,0 +1,184 @@
+"""Single-spacecraft feedback laws with state: an attitude PID and an LVLH station-keeping PD.
+
+Flight software: each spacecraft sees only its own measurements (plus, for station keeping,
+the chief's measured orbit: the chief's GPS fix as the formation shares it). Neither law uses
+the network: their outboxes are empty.
+"""
+
+from coopsat import _jax  # noqa: F401
+
+import jax.numpy as jnp
+
+from coopsat._parts import OutputSpec, part
+from coopsat.geometry.frames import eci_to_lvlh
+from coopsat.geometry.quaternion import quat_error, quat_positive, quat_vector
+
+CHIEF = 0
+"""Index of the chief spacecraft (the first ``[[spacecraft]]``), as the plant's ``force_lvlh``
+channel (:class:`~coopsat.dynamics.plant.PlantParams` ``chief``)."""
+
+
+def attitude_error_vector(q_bi, q_target, axis=-1):
+    """``vec(q_t* ⊗ q)`` on the ``q0 ≥ 0`` hemisphere (the short way round); (..., 4) -> (..., 3).
+
+    Parameters
+    ----------
+    q_bi : array_like, shape (n, 4)
+        Attitudes, body relative to inertial ((4, n) with ``axis=0``).
+    q_target : array_like, shape broadcastable against ``q_bi``
+        Target attitude.
+    axis : {-1, 0}
+
+    Returns
+    -------
+    jax.Array
+        Body components; ``sin(θ/2)·n̂`` for a rotation by θ ∈ [0, π] about n̂ from the target to
+        the body.
+    """
+    return quat_vector(quat_positive(quat_error(q_bi, q_target, axis), axis), axis)
+
+
+def pid_torque(e, omega_b, integral, k_p, k_d, k_i):
+    """``u = −K_p e − K_d ω − K_i ∫e dt``, N·m (any shape; the arguments broadcast).
+
+    Parameters
+    ----------
+    e : array_like
+        Attitude error vector ``vec(q_t* ⊗ q)``.
+    omega_b : array_like
+        Body rate, rad/s (the target's rate is zero).
+    integral : array_like
+        ``∫ e dt``, s.
+    k_p, k_d, k_i : scalar
+        N·m, N·m·s/rad, N·m/s.
+    """
+    return -k_p * e - k_d * omega_b - k_i * integral
+
+
+def integrate_error(integral, e, period_s, integral_max):
+    """The integral one period later: ``clip(∫e + T e, ±integral_max)`` (the error held over the
+    period, as the controller sampled it; the clip is the anti-windup)."""
+    return jnp.clip(integral + period_s * e, -integral_max, integral_max)
+
+
+def lvlh_pd_force(rho_lvlh, rho_dot_lvlh, rho_target_lvlh, k_p, k_d):
+    """``f = −K_p (ρ − ρ_t) − K_d ρ̇``, N, LVLH axes (any shape; the arguments broadcast).
+
+    Parameters
+    ----------
+    rho_lvlh, rho_dot_lvlh : array_like
+        Position (m) and rotating-frame velocity (m/s) relative to the chief, LVLH.
+    rho_target_lvlh : array_like
+        Wanted position relative to the chief, m, LVLH.
+    k_p, k_d : scalar
+        N/m and N·s/m.
+    """
+    return -k_p * (rho_lvlh - rho_target_lvlh) - k_d * rho_dot_lvlh
+
+
+@part()
+class AttitudePid:
+    """Attitude hold: PID on the error quaternion to a constant target, body torque command.
+
+    Attributes
+    ----------
+    k_p, k_d, k_i : scalar
+        N·m, N·m·s/rad, N·m/s.
+    q_target : (4,)
+        Target attitude (unit), scalar first.
+    period_s : scalar
+        Control period T, s (the integral's step).
+    integral_max : scalar
+        Anti-windup clamp on each component of ``∫e dt``, s (``inf``: none).
+
+    Notes
+    -----
+    State: ``∫e dt`` (3, n), the integral of the sampled error held over each period, from
+    t = 0 to the current sample: the command at sample k uses ``T Σ_{j<k} e_j``, then adds
+    ``T e_k`` for the next period.
+    """
+
+    k_p: jnp.ndarray
+    k_d: jnp.ndarray
+    k_i: jnp.ndarray
+    q_target: jnp.ndarray
+    period_s: jnp.ndarray
+    integral_max: jnp.ndarray
+
+    commands = ("torque_b",)
+
+    def init(self, n):
+        return jnp.zeros((3, n))
+
+    def outbox(self, y, state):
+        return {}
+
+    def step(self, t, y, inbox, state, key):
+        """Body torque ``torque_b`` (3, n); records it and the integral it used."""
+        e = attitude_error_vector(y["q"], self.q_target[:, None], 0)
+        u = pid_torque(e, y["omega"], state, self.k_p, self.k_d, self.k_i)
+        new_state = integrate_error(state, e, self.period_s, self.integral_max)
+        return {"torque_b": u}, new_state, {"torque_command": u, "attitude_error_integral": state}
+
+    def output_specs(self):
+        return {
+            "torque_command": OutputSpec(("component",), "N m", "body", "torque commanded by the control law at the sample"),
+            "attitude_error_integral": OutputSpec(
+                ("component",), "s", "body",
+                "integral from t = 0 to the sample of the attitude error vec(q_target* x q) (sampled, held over "
+                "each period, clamped to integral_max), as the PID used it",
+            ),
+        }
+
+
+@part()
+class LvlhPd:
+    """Formation keeping: each deputy holds a constant offset from the chief, in the chief's LVLH
+    frame (PD on the measured relative state); force command ``force_lvlh``.
+
+    Attributes
+    ----------
+    k_p, k_d : scalar
+        N/m and N·s/m.
+    rho_target_lvlh : (3, n)
+        Offset to hold, m, LVLH (the chief's column is zero).
+
+    Notes
+    -----
+    Relative state from the measured ECI positions and velocities of the chief (spacecraft
+    :data:`CHIEF`) and of the deputy (:func:`~coopsat.geometry.frames.eci_to_lvlh`). The chief
+    commands zero force. Stateless.
+    """
+
+    k_p: jnp.ndarray
+    k_d: jnp.ndarray
+    rho_target_lvlh: jnp.ndarray
+
+    commands = ("force_lvlh",)
+
+    def init(self, n):
+        return ()
+
+    def outbox(self, y, state):
+        return {}
+
+    def step(self, t, y, inbox, state, key):
+        """Force ``force_lvlh`` (3, n), N; records it and the relative state."""
+        r, v = y["r_eci"], y["v_eci"]
+        c = slice(CHIEF, CHIEF + 1)
+        rho, rho_dot = eci_to_lvlh(r[:, c], v[:, c], r, v, 0)
+        f = lvlh_pd_force(rho, rho_dot, self.rho_target_lvlh, self.k_p, self.k_d)
+        f = jnp.where(jnp.arange(f.shape[-1]) == CHIEF, 0.0, f)
+        return {"force_lvlh": f}, state, {"force_command": f, "rho_lvlh": rho, "rho_dot_lvlh": rho_dot}
+
+    def output_specs(self):
+        return {
+            "force_command": OutputSpec(("component",), "N", "LVLH", "force commanded by the control law at the sample"),
+            "rho_lvlh": OutputSpec(
+                ("component",), "m", "LVLH", "measured position relative to the chief, as the control law saw it"
+            ),
+            "rho_dot_lvlh": OutputSpec(
+                ("component",), "m/s", "LVLH",
+                "measured velocity relative to the chief, seen in the rotating LVLH frame, as the control law saw it",
+            ),
+        }

@@ -1,0 +1,151 @@
+"""Sensors (``[[sensors]]``): star tracker, rate gyro and navigation (position / velocity) noise.
+
+Each table replaces one quantity the flight software reads by what a sensor measures; a
+quantity no sensor measures is read perfectly. Every sensor may update more slowly than the
+controller (``period_s``, a whole multiple of the control period); its reading is held in
+between. Noise derives from the scenario's ``seed``, so a run replays bit for bit.
+"""
+
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import Field, PlainValidator
+
+from coopsat.plugins import DesignError, Plugin, register
+from coopsat.plugins.tables import Table, Vec3, whole_ratio
+
+
+def _per_axis_sigma(v):
+    """One number, or three ``[x, y, z]``; finite and ≥ 0 (one error message, not one per form)."""
+    def number(x):
+        return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+    if number(v):
+        out = float(v)
+    elif isinstance(v, (list, tuple)) and len(v) == 3 and all(number(x) for x in v):
+        out = [float(x) for x in v]
+    else:
+        raise ValueError("must be one number, or one per axis [x, y, z]")
+    if not np.all(np.isfinite(out)) or np.any(np.asarray(out) < 0.0):
+        raise ValueError("must be finite and ≥ 0 (one number, or one per axis [x, y, z])")
+    return out
+
+
+PerAxis = Annotated[float | list[float], PlainValidator(_per_axis_sigma)]
+"""A standard deviation: one number for every axis, or ``[x, y, z]``; finite, ≥ 0."""
+
+_PERIOD = Field(
+    None, gt=0, description="Update interval, s: a whole multiple of the control period (default: the control period)."
+)
+
+
+class StarTracker(Table):
+    """``kind = "star-tracker"``: attitude with a small body-frame error rotation."""
+
+    kind: Literal["star-tracker"]
+    sigma_arcsec: PerAxis = Field(
+        description="Standard deviation of the error rotation about each body axis, arcsec (one, or [x, y, z])."
+    )
+    period_s: float | None = _PERIOD
+
+
+class Gyro(Table):
+    """``kind = "gyro"``: body rate plus a random-walk bias plus white noise."""
+
+    kind: Literal["gyro"]
+    sigma_rad_s: PerAxis = Field(description="Standard deviation of the rate noise of one reading, rad/s, per body axis.")
+    bias_rw_rad_s_sqrt_s: PerAxis = Field(
+        0.0, description="Bias random walk σ_rw, rad/s/√s: the bias spreads σ_rw·√t after a time t (0: constant bias)."
+    )
+    bias0_rad_s: Vec3 = Field([0.0, 0.0, 0.0], description="Bias at t = 0, body frame, rad/s (every spacecraft).")
+    period_s: float | None = _PERIOD
+
+
+class PositionNoise(Table):
+    """``kind = "position-noise"``: navigation error on the ECI position (needs ``[orbit]``)."""
+
+    kind: Literal["position-noise"]
+    sigma_m: PerAxis = Field(description="Standard deviation of the position error per ECI axis, m.")
+    period_s: float | None = _PERIOD
+
+
+class VelocityNoise(Table):
+    """``kind = "velocity-noise"``: navigation error on the ECI velocity (needs ``[orbit]``)."""
+
+    kind: Literal["velocity-noise"]
+    sigma_m_s: PerAxis = Field(description="Standard deviation of the velocity error per ECI axis, m/s.")
+    period_s: float | None = _PERIOD
+
+
+_QUANTITY = {"star-tracker": "q", "gyro": "omega", "position-noise": "r_eci", "velocity-noise": "v_eci"}
+"""The measured quantity each kind replaces."""
+
+
+def _place(table, ctx):
+    """The table's place in the scenario, ``sensors[k]``."""
+    k = next((k for k, t in enumerate(ctx.scenario.sensors) if t is table), None)
+    return "sensors" if k is None else f"sensors[{k}]"
+
+
+def _every(table, ctx):
+    """Control periods between updates; checks the period and that the quantity is measured once."""
+    where = _place(table, ctx)
+    quantity = _QUANTITY[table.kind]
+    for k, other in enumerate(ctx.scenario.sensors):
+        if other is table:
+            break
+        if _QUANTITY[other.kind] == quantity:
+            raise DesignError(
+                f"{where}: measures {quantity} like sensors[{k}]; give one sensor per measured quantity"
+            )
+    if quantity in ("r_eci", "v_eci") and ctx.scenario.orbit is None:
+        raise DesignError(
+            f'{where}: kind = "{table.kind}" measures {quantity}, which needs an [orbit] table (this run is attitude only)'
+        )
+    if table.period_s is None:
+        return 1
+    every = whole_ratio(table.period_s, ctx.period_s)
+    if every is None:
+        raise DesignError(
+            f"{where}.period_s ({table.period_s:g} s) must be a whole multiple of the control period ({ctx.period_s:g} s)"
+        )
+    return every
+
+
+def _per_axis(v, scale=1.0):
+    return np.broadcast_to(np.asarray(v, dtype=float) * scale, (3,)).copy()
+
+
+def _build_star_tracker(table, ctx):
+    from coopsat.sensors.noise import ARCSEC_RAD
+    from coopsat.sensors.parts import StarTracker as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    return Part(*as_arrays((_per_axis(table.sigma_arcsec, ARCSEC_RAD),)), every=every)
+
+
+def _build_gyro(table, ctx):
+    from coopsat.sensors.parts import Gyro as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    arrays = (
+        _per_axis(table.sigma_rad_s), _per_axis(table.bias_rw_rad_s_sqrt_s), _per_axis(table.bias0_rad_s), ctx.period_s,
+    )
+    return Part(*as_arrays(arrays), every=every)
+
+
+def _build_navigation(table, ctx):
+    from coopsat.sensors.parts import NavigationNoise as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    sigma = table.sigma_m if table.kind == "position-noise" else table.sigma_m_s
+    return Part(*as_arrays((_per_axis(sigma),)), quantity=_QUANTITY[table.kind], every=every)
+
+
+register(Plugin("sensor", "star-tracker", StarTracker, _build_star_tracker))
+register(Plugin("sensor", "gyro", Gyro, _build_gyro))
+register(Plugin("sensor", "position-noise", PositionNoise, _build_navigation))
+register(Plugin("sensor", "velocity-noise", VelocityNoise, _build_navigation))

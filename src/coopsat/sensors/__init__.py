@@ -1,0 +1,1 @@
+"""Sensor models: star tracker, gyro and their noise, drawn from explicit JAX random keys."""

@@ -1,8 +1,9 @@
 """Engine throughput benchmark: spacecraft-steps per second, compile time apart.
 
-Two cases per formation size N: a torque-free rigid body (N independent bodies), and law (3)
+Three cases per formation size N: a torque-free rigid body (N independent bodies); law (3)
 on an undirected ring with the controller evaluated every tick (the costliest rate) and an
-ideal torque actuator. One "spacecraft-step" is one spacecraft advanced by one RK4 tick.
+ideal torque actuator; and the same over a network that delays every message by 2 s (a ring
+buffer of 201 periods of outboxes). One "spacecraft-step" is one spacecraft advanced by one RK4 tick.
 Prints numbers; asserts nothing (timings are not tests).
 """
 
@@ -10,16 +11,38 @@ Prints numbers; asserts nothing (timings are not tests).
 import numpy as np
 
 
-def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0):
+DELAY_PERIODS = 200
+"""Delay of every link in the delayed-network case: 2 s at the benchmark's 0.01 s period."""
+
+
+def _network(links, delayed):
+    """Ideal network, or every link delayed by :data:`DELAY_PERIODS` (a ring buffer of 201
+    outboxes)."""
+    from coopsat.network.delay import DelayedNetwork
+    from coopsat.network.delivery import IdealNetwork
+    from coopsat.sim.system import as_arrays
+
+    weight, switch = links.weight[None], np.zeros(1, np.int64)
+    if not delayed:
+        return IdealNetwork(*as_arrays((links.src, links.dst, weight, switch)))
+    fixed = np.where(weight > 0, DELAY_PERIODS, 0)
+    return DelayedNetwork(
+        *as_arrays((links.src, links.dst, weight, (weight > 0).astype(np.int64), fixed, np.zeros_like(weight), switch,
+                    0, 0, 1, 1)),
+        period_ticks=1, buffer_periods=DELAY_PERIODS + 1, random=False, lossy=False, hold=True,
+    )
+
+
+def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=False):
     """A random formation of ``n`` spacecraft for the benchmark (no orbit): free, or law (3)
-    on an undirected ring with an ideal torque actuator."""
+    on an undirected ring with an ideal torque actuator, over an ideal network or one that
+    delays every message by 2 s."""
     import jax
 
     from coopsat.actuators.ideal import IdealTorque
     from coopsat.control.consensus import ConsensusLaw
     from coopsat.control.free import NoControl
     from coopsat.dynamics.plant import PlantParams, PlantState
-    from coopsat.network.delivery import IdealNetwork
     from coopsat.network.topology import links_from_adjacency, ring_adjacency
     from coopsat.sim.system import Structure, System, as_arrays
 
@@ -42,14 +65,14 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0):
             PlantParams(principal, 1.0 / principal, 0.0, 0.0, 1.0, np.full(n, np.nan), 0),
         )),
         controller=law,
-        network=IdealNetwork(*as_arrays((links.src, links.dst, links.weight[None], np.zeros(1, np.int64)))),
+        network=_network(links, delayed),
         sensors=(),
         actuators=(IdealTorque(*as_arrays((0.05,))),),
         disturbances=(),
     )
 
 
-def measure(n, controller, ticks, batch=None, repeats=3):
+def measure(n, controller, ticks, batch=None, repeats=3, delayed=False):
     """(compile s, best run s, spacecraft-steps/s) for ``ticks`` ticks of ``n`` spacecraft.
 
     With ``batch``, that many independent runs (different random formations) go through one
@@ -61,9 +84,11 @@ def measure(n, controller, ticks, batch=None, repeats=3):
     record_ticks = min(1000, ticks)
     n_records = ticks // record_ticks
     if batch is None:
-        system = bench_system(n, controller, record_ticks=record_ticks)
+        system = bench_system(n, controller, record_ticks=record_ticks, delayed=delayed)
     else:
-        system = stack_systems([bench_system(n, controller, record_ticks=record_ticks, seed=k) for k in range(batch)])
+        system = stack_systems(
+            [bench_system(n, controller, record_ticks=record_ticks, seed=k, delayed=delayed) for k in range(batch)]
+        )
     kwargs = {"batched": batch is not None}
     first = simulate(system, n_records, record_ticks * 0.01, **kwargs)
     best = min(simulate(system, n_records, record_ticks * 0.01, **kwargs).run_s for _ in range(repeats))
@@ -77,15 +102,18 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=256):
     print(f"coopsat engine benchmark: JAX {jax.__version__} on {jax.devices()[0].platform}, float64, RK4")
     print(f"{'case':<14}{'N':>7}{'batch':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}")
 
-    def row(label, n, controller, b):
+    def row(label, n, controller, b, delayed=False):
         total = n * (b or 1)
         ticks = steps or int(np.clip(2e7 / total, 2_000, 1_000_000) // 1000 * 1000)
-        compile_s, run_s, rate = measure(n, controller, ticks, batch=b)
+        compile_s, run_s, rate = measure(n, controller, ticks, batch=b, delayed=delayed)
         print(f"{label:<14}{n:>7}{b or 1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}", flush=True)
 
     for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
         for n in sizes:
             row(label, n, controller, None)
+    for n in sizes:
+        if n > 1:
+            row("cons. 2s delay", n, "consensus-sync", None, delayed=True)
     if batch:
         for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
             row(label, 5, controller, batch)

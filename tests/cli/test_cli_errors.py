@@ -325,3 +325,51 @@ def test_a_folder_named_like_a_bundled_scenario_does_not_hide_it(tmp_path, monke
     monkeypatch.chdir(tmp_path)
     (tmp_path / "rigid-body-free").mkdir()
     assert main(["validate", "rigid-body-free"]) == 0
+
+
+# ------------------------------------------------------------- plug-in bad input (issue 5)
+
+GOOD_GAINS = "alpha = 1.0\nbeta = 2.0"
+
+
+@pytest.mark.parametrize(
+    "extra, expected",
+    [
+        # a delay that is not a whole number of control periods (0.01 s)
+        ('[network.delivery]\nkind = "delayed"\ndelay_s = 0.015', "network.delivery.delay_s (0.015 s) must be a whole number"),
+        # a delay bound below a delay the draw may give
+        (
+            '[network.delivery]\nkind = "delayed"\n[network.delivery.random_delay]\n'
+            "min_s = 0.05\nmax_s = 0.02\nhold_min_s = 0.01\nhold_max_s = 0.02",
+            "network.delivery.random_delay: min_s (0.05 s) is above the bound max_s (0.02 s)",
+        ),
+        # a sensor rate that does not divide into control periods
+        ('[[sensors]]\nkind = "gyro"\nsigma_rad_s = 1e-4\nperiod_s = 0.015', "sensors[0].period_s (0.015 s) must be a whole multiple"),
+        # kinds that no plug-in provides: the message lists the kinds that exist
+        ('[[sensors]]\nkind = "sun-sensor"', "'star-tracker', 'gyro'"),
+        ('[actuators]\nkind = "ion-engine"', "'ideal-torque', 'pwm-thrusters'"),
+        # an actuator that executes a command the controller never issues
+        ('[actuators]\nkind = "proportional-thrusters"', "executes the command 'force_lvlh' but the controller issues torque_b"),
+    ],
+)
+def test_run_with_bad_plugin_input(work, capsys, extra, expected):
+    text = VALID.format(name="plug", q="[1.0, 0.0, 0.0, 0.0]", gains=GOOD_GAINS) + extra + "\n"
+    out = work / "runs" / "r"
+    status, _, err = run_main(capsys, ["run", write(work, "plug", text), "--out", out, "--no-figures", "-q"])
+    assert status == EXIT_BAD_INPUT
+    assert expected in error_line(err)
+    assert_nothing_written(work, out)
+
+
+def test_run_with_a_route_lost_after_a_failure(work, capsys):
+    text = VALID.format(name="route", q="[1.0, 0.0, 0.0, 0.0]", gains=GOOD_GAINS).replace(
+        'kind = "ring"', 'kind = "ring"\ndirected = true'
+    ) + (
+        '[network.delivery]\nkind = "delayed"\nrelay = true\n'
+        '[[network.switches]]\nt_s = 0.5\nkind = "edges"\ndirected = true\nedges = [["sat1", "sat2", 1.0]]\n'
+    )
+    out = work / "runs" / "r"
+    status, _, err = run_main(capsys, ["run", write(work, "route", text), "--out", out, "--no-figures", "-q"])
+    assert status == EXIT_BAD_INPUT
+    assert "network.switches[0]: no route from sat2 to sat1 is left after this switch" in error_line(err)
+    assert_nothing_written(work, out)

@@ -1,22 +1,25 @@
 """The closed-loop engine: integer ticks, zero-order hold, RK4, one compiled scan.
 
-Per control period (``ticks_per_period`` base ticks):
+Per control period (``ticks_per_period`` base ticks), with the parts of a
+:class:`~coopsat.sim.system.System` (docs/architecture.md §4):
 
-    sense → deliver → control → actuate (a :class:`~coopsat.actuators.pulses.Pulse`)
-          → integrate every tick of the period with RK4 → account (impulse, on-time)
+    sense (sensors) → outbox → deliver (network) → control (flight software)
+          → actuate (one pulse per actuator) → update disturbances
+          → integrate every tick of the period with RK4 → account (actuator counters)
 
-Pulsed actuation (PWM) switches inside a tick; each tick is then integrated piecewise between
-the sorted switch instants of each spacecraft (at most three per tick, one per axis), so the
-on-time is honoured exactly. Inside the loop every per-spacecraft array is component-major,
-``(k, n)``: each component is a contiguous row, so XLA vectorises the arithmetic over spacecraft
-(twice the throughput of ``(n, k)`` on the CPU); the layout changes only at the boundaries
-(:func:`_engine_view`, :func:`simulate`). A record is taken every ``periods_per_record`` periods:
-the state, command and auxiliary outputs at the record instant, the mean torque applied over
-the interval that starts there, and the cumulative counters. The run is one jitted
-``lax.scan`` over records, cut into equal power-of-two chunks (to move a progress bar, and so
-that runs of similar length share a compiled program); ``jax.vmap`` over a batched
-:class:`~coopsat.sim.system.System` runs many at once. There is no Python loop over ticks,
-spacecraft or edges.
+The engine names no law, actuator or sensor: it calls each part's methods. Pulsed actuators
+(PWM, impulse bits) switch inside a tick; each tick is then integrated piecewise between the
+sorted switch instants of each spacecraft, so on-times are honoured exactly. Inside the loop
+every per-spacecraft array is component-major, ``(k, n)``: each component is a contiguous row,
+so XLA vectorises the arithmetic over spacecraft (twice the throughput of ``(n, k)`` on the
+CPU); the layout changes only at the boundaries (:func:`_engine_view`, :func:`simulate`).
+Random numbers come only from the run's key: ``fold_in(key, period)``, then a fixed
+sub-stream per part. A record is taken every ``periods_per_record`` periods: the state and the
+parts' records at the record instant, each actuator's mean output over the interval that
+starts there, and the cumulative counters. The run is one jitted ``lax.scan`` over records, cut
+into equal power-of-two chunks (to move a progress bar, and so that runs of similar length
+share a compiled program); ``jax.vmap`` over a batched System runs many at once. There is no
+Python loop over ticks, spacecraft or edges.
 """
 
 import dataclasses
@@ -166,7 +169,8 @@ def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched)
 
 
 def _truth(system, x):
-    """What ideal sensors would read: the true state, component-major."""
+    """The true state as named quantities, component-major: what ideal sensors read, and what
+    a sample records of the plant."""
     y = {"q": x.q_bi, "omega": x.omega_b}
     if _wheels(system):
         y["h_wheels"] = x.h_wheels_b
@@ -255,15 +259,6 @@ def _period(system, carry, batched):
     return (x, st, acc, tick + tpp), (pulses, record)
 
 
-def _state_sample(system, x):
-    sample = {"q": x.q_bi, "omega": x.omega_b}
-    if _wheels(system):
-        sample["h_wheels"] = x.h_wheels_b
-    if system.structure.gravity != "none":
-        sample.update(r_eci=x.r_eci, v_eci=x.v_eci)
-    return sample
-
-
 def _means(system, acc_before, acc_after, interval_s):
     """Each actuator's mean output over an interval, from its counter (e.g. mean torque from
     the signed angular impulse)."""
@@ -286,7 +281,7 @@ def _block(system, carry, batched):
     if rest > 0:
         carry = jax.lax.fori_loop(0, rest, lambda _, c: _period(system, c, batched)[0], carry)
     interval = system.period_s * system.structure.periods_per_record
-    return carry, {**_state_sample(system, x), **acc, **record, **_means(system, acc, carry[2], interval)}
+    return carry, {**_truth(system, x), **acc, **record, **_means(system, acc, carry[2], interval)}
 
 
 @partial(jax.jit, static_argnames=("chunk", "batched"))
@@ -314,7 +309,7 @@ def _final_sample(system, carry):
     pulses, _, record = _command(system, x, st, tick)
     inc = _account(system, pulses)
     means = {a.mean_output[0]: inc[a.mean_output[1]] / system.period_s for a in system.actuators}
-    return {**_state_sample(system, x), **acc, **record, **means}
+    return {**_truth(system, x), **acc, **record, **means}
 
 
 def _initial_carry(system):

@@ -52,7 +52,10 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=Fa
     principal = rng.uniform(0.5, 1.5, size=(n, 3))  # body axes = principal axes (diagonal path)
     zeros = np.zeros((n, 3))
     links = links_from_adjacency(ring_adjacency(n) if controller != "none" and n > 1 else np.zeros((n, n)))
-    structure = Structure(n_spacecraft=n, gravity="none", ticks_per_period=1, periods_per_record=record_ticks, substeps=1)
+    structure = Structure(
+        n_spacecraft=n, gravity="none", attitude="rigid-body", ticks_per_period=1, periods_per_record=record_ticks,
+        substeps=1,
+    )
     if controller == "none":
         law = NoControl()
     else:
@@ -61,7 +64,7 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=Fa
         structure,
         *as_arrays((
             dt_s, jax.random.PRNGKey(seed),
-            PlantState(q, rng.normal(scale=0.1, size=(n, 3)), zeros, zeros, zeros),
+            PlantState(q, rng.normal(scale=0.1, size=(n, 3)), zeros, zeros, zeros, zeros),
             PlantParams(principal, 1.0 / principal, 0.0, 0.0, 1.0, np.full(n, np.nan), 0),
         )),
         controller=law,

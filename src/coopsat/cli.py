@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|bench``.
+"""Command line: ``coopsat list|show|validate|run|margin|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -82,6 +82,27 @@ def _cmd_run(args):
     return 0
 
 
+def _cmd_margin(args):
+    from coopsat.pipeline import prepare
+    from coopsat.scenarios.load import ScenarioError, load_scenario
+
+    built = prepare(load_scenario(args.scenario, args.set))
+    check = built.checks.get("delay-margin")
+    if check is None:
+        raise ScenarioError(
+            f"{built.scenario.name}: controller {built.scenario.controller.kind} has no delay margin "
+            "(the leader-follower controller has one)"
+        )
+    m = check.detail
+    print(check.note)
+    print(f"  delay_margin_s = {m.tau_s:.9g}")
+    print(f"  crossing_omega_rad_s = {m.omega_rad_s:.9g}")
+    print(f"  stable_without_delay = {str(m.stable_without_delay).lower()}")
+    if "largest_hop_delay_s" in check.metrics:
+        print(f"  largest_hop_delay_s = {check.metrics['largest_hop_delay_s']:g}")
+    return 0
+
+
 def _cmd_bench(args):
     from coopsat.bench import run_benchmarks
 
@@ -114,6 +135,11 @@ def build_parser():
     run.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     run.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no metrics on stdout")
     run.set_defaults(func=_cmd_run)
+
+    margin = sub.add_parser("margin", help="exact constant-delay margin of a scenario's delayed consensus law")
+    margin.add_argument("scenario")
+    margin.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    margin.set_defaults(func=_cmd_margin)
 
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")

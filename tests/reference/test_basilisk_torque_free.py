@@ -1,4 +1,4 @@
-"""The torque-free rigid body against Basilisk 2.12.1 (RK4, 1 ms): shared/reference/README.md."""
+"""The torque-free rigid body against Basilisk 2.12.1 (RK4, 1 ms): tests/data/README.md."""
 
 from pathlib import Path
 
@@ -8,13 +8,11 @@ import pytest
 from coopsat.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 
-REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference" / "basilisk_torque_free_sat1.csv"
+REFERENCE = Path(__file__).resolve().parents[1] / "data" / "basilisk_torque_free_sat1.csv"
 
 
 @pytest.fixture(scope="module")
 def run():
-    if not REFERENCE.exists():
-        pytest.skip(f"reference data not found at {REFERENCE}")
     ref = np.loadtxt(REFERENCE, delimiter=",", skiprows=1)
     ds, _ = simulate_built(prepare(load_scenario("rigid-body-free")))
     return ref, ds

@@ -20,11 +20,16 @@ def test_bundled_scenario_runs_and_writes_its_folder(name, tmp_path):
     folder = tmp_path / name
     assert sorted(p.name for p in tmp_path.iterdir()) == [name]  # no temporary folder left behind
     with xr.open_dataset(folder / "result.nc", engine="h5netcdf") as ds:
-        assert {"q", "omega", "torque"} <= set(ds.data_vars)
-        assert ds.q.dims == ("time", "spacecraft", "q_component") and ds.sizes["q_component"] == 4
+        # The attitude: a quaternion, or small angles in the small-angle model (SPEC §3).
+        attitude = "angle" if "angle" in ds else "q"
+        assert {attitude, "omega", "torque"} <= set(ds.data_vars)
+        if attitude == "q":
+            assert ds.q.dims == ("time", "spacecraft", "q_component") and ds.sizes["q_component"] == 4
+        else:
+            assert ds.angle.dims == ("time", "spacecraft", "component") and ds.angle.attrs["units"] == "rad"
         assert ds.omega.attrs["units"] == "rad/s" and ds.torque.attrs["units"] == "N m"
         assert ds.time.values[-1] == pytest.approx(t_final)
-        assert np.all(np.isfinite(ds.q.values))
+        assert np.all(np.isfinite(ds[attitude].values))
         resolved = tomllib.loads(ds.attrs["scenario_toml"])
         assert resolved["name"] == name and ds.attrs["coopsat_version"] and "seed" in ds.attrs
         # The stored scenario replays: it validates to the scenario that ran.

@@ -134,18 +134,18 @@ def run_metrics(ds, names, inertia_kgm2, h_wheels_b_nms=0.0):
     Returns
     -------
     dict of str -> float, int or None
-        Final largest rate, the formation's inertial angular momentum at both ends, and per
+        Final largest rate, the formation's inertial angular momentum at both ends (rigid-body
+        attitude model), and per
         spacecraft every actuator counter the run recorded (impulse, thruster on-time and
         firings).
     """
-    q = ds["q"].values
     omega = ds["omega"].values
-    h = inertial_angular_momentum_nms(q, omega, inertia_kgm2, ds["h_wheels"].values if "h_wheels" in ds else h_wheels_b_nms)
-    m = {
-        "final_rate_max_rad_s": float(np.linalg.norm(omega[-1], axis=-1).max()),
-        "angular_momentum_initial_nms": float(np.linalg.norm(h[0])),
-        "angular_momentum_final_nms": float(np.linalg.norm(h[-1])),
-    }
+    m = {"final_rate_max_rad_s": float(np.linalg.norm(omega[-1], axis=-1).max())}
+    if "q" in ds:  # the rigid-body attitude model (the small-angle model has no inertial attitude)
+        h_w = ds["h_wheels"].values if "h_wheels" in ds else h_wheels_b_nms
+        h = inertial_angular_momentum_nms(ds["q"].values, omega, inertia_kgm2, h_w)
+        m["angular_momentum_initial_nms"] = float(np.linalg.norm(h[0]))
+        m["angular_momentum_final_nms"] = float(np.linalg.norm(h[-1]))
     if "impulse" in ds:
         impulse = ds["impulse"].values[-1].sum(axis=-1)
         for name, value in zip(names, impulse):

@@ -22,14 +22,14 @@ def _vec_error(q_i, q_j, short_way, axis):
     return quat_vector(q_e, axis)
 
 
-def _own_at_links(own, dst, axis):
+def own_at_links(own, dst, axis):
     """Each link's receiver's own value: (k, n) -> (k, E) or (k, 1, n) (padded table)."""
     if dst.ndim == 2:  # padded table: the receiver of column i is i
         return own[:, None, :] if axis == 0 else own[None]
     return jnp.take(own, dst, axis=-1 if axis == 0 else 0)
 
 
-def _per_receiver_sum(per_link, dst, n, axis):
+def per_receiver_sum(per_link, dst, n, axis):
     """Σ over the links into each spacecraft (edge list sorted by receiver, or padded table)."""
     if dst.ndim == 2:
         return per_link.sum(axis=-2 if axis == 0 else 0)
@@ -75,9 +75,9 @@ def consensus_sync_torque(q_own, omega_own, q_msg, omega_msg, dst, weight, alpha
     2010 consensus paper, eq. (3); reduces the tracking law (4) with K = D = 0.
     """
     w = weight if axis == 0 else weight[..., None]
-    e_q = _vec_error(_own_at_links(q_own, dst, axis), q_msg, short_way, axis)
-    per_link = w * (alpha * e_q + beta * (_own_at_links(omega_own, dst, axis) - omega_msg))
-    return -_per_receiver_sum(per_link, dst, q_own.shape[-1 if axis == 0 else 0], axis)
+    e_q = _vec_error(own_at_links(q_own, dst, axis), q_msg, short_way, axis)
+    per_link = w * (alpha * e_q + beta * (own_at_links(omega_own, dst, axis) - omega_msg))
+    return -per_receiver_sum(per_link, dst, q_own.shape[-1 if axis == 0 else 0], axis)
 
 
 def reference_attitude(q_ref0, omega_ref_b, t_s):

@@ -12,7 +12,7 @@ from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 
-from coopsat.dynamics.rigid_body import omega_dot_b
+from coopsat.dynamics.rigid_body import matvec3, omega_dot_b
 from coopsat.dynamics.translational import j2_accel, two_body_accel
 from coopsat.geometry.frames import lvlh_vector_to_eci
 from coopsat.geometry.quaternion import quat_kinematics, quat_rotate
@@ -33,6 +33,9 @@ class PlantState(NamedTuple):
         Position, m (zero and frozen when the run has no orbit).
     v_eci : (n, 3)
         Velocity, m/s (likewise).
+    angle_rad : (n, 3)
+        Small attitude angles about the body axes, rad: the state of the small-angle attitude
+        model (zero and frozen in the rigid-body model, where ``q_bi`` is the attitude).
     """
 
     q_bi: jnp.ndarray
@@ -40,6 +43,7 @@ class PlantState(NamedTuple):
     h_wheels_b: jnp.ndarray
     r_eci: jnp.ndarray
     v_eci: jnp.ndarray
+    angle_rad: jnp.ndarray
 
 
 class PlantParams(NamedTuple):
@@ -93,7 +97,13 @@ def _chief(a, chief, axis):
     return jnp.expand_dims(jnp.take(a, chief, axis=sc_axis), sc_axis)
 
 
-def plant_derivative(x, wrench, params, gravity, axis=-1):
+ATTITUDE_MODELS = ("rigid-body", "small-angle")
+"""Attitude models: the full rigid body (quaternion, Euler's equation), or its small-angle
+linearisation about rest, ``θ̇ = ω``, ``I ω̇ = τ`` (per axis a double integrator, the model of
+the leader–follower delay paper, SPEC §3)."""
+
+
+def plant_derivative(x, wrench, params, gravity, axis=-1, attitude="rigid-body"):
     """Time derivative of :class:`PlantState`.
 
     Parameters
@@ -107,6 +117,8 @@ def plant_derivative(x, wrench, params, gravity, axis=-1):
         Static: "none" freezes position and velocity.
     axis : int
         Component axis of every field.
+    attitude : {"rigid-body", "small-angle"}
+        Static: the attitude model (:data:`ATTITUDE_MODELS`).
 
     Returns
     -------
@@ -127,8 +139,13 @@ def plant_derivative(x, wrench, params, gravity, axis=-1):
     dh = wrench.get("wheel_torque_b", zeros3)
     if "wheel_torque_b" in wrench:
         torque = torque - dh
-    dq = quat_kinematics(x.q_bi, x.omega_b, axis)
-    dw = omega_dot_b(x.omega_b, torque, params.inertia_kgm2, params.inertia_inv, x.h_wheels_b, axis)
+    if attitude == "small-angle":
+        # Linearised about rest: no gyroscopic term, angles integrate the rates.
+        dq, d_angle = jnp.zeros_like(x.q_bi), x.omega_b
+        dw = matvec3(params.inertia_inv, torque, axis)
+    else:
+        dq, d_angle = quat_kinematics(x.q_bi, x.omega_b, axis), zeros3
+        dw = omega_dot_b(x.omega_b, torque, params.inertia_kgm2, params.inertia_inv, x.h_wheels_b, axis)
     if gravity == "none":
         dr, dv = zeros3, zeros3
     else:
@@ -144,4 +161,4 @@ def plant_derivative(x, wrench, params, gravity, axis=-1):
             force = force + lvlh_vector_to_eci(r_c, v_c, wrench["force_lvlh"], axis)
         if any(c in wrench for c in _FORCE_CHANNELS):
             dv = dv + force / params.mass_kg
-    return PlantState(dq, dw, dh, dr, dv)
+    return PlantState(dq, dw, dh, dr, dv, d_angle)

@@ -10,7 +10,9 @@ link at period f is the transmitter's outbox of period ``f − d``, with
 single-hop delay, piecewise constant and redrawn at random instants, SPEC §3). Before t = 0
 the history is the first outbox. A message is lost with probability ``1 − (1 − p)^m``
 (each hop drops it with probability p); the receiver then holds the last message it got on
-that link, or drops the term (weight 0) for that period. Routes, hops and fixed delays per
+that link, or drops the term (weight 0) for that period. With each message the inbox carries
+the receiver's own outbox of the same past period (for protocols that delay the whole
+relative state). Routes, hops and fixed delays per
 topology epoch are computed at design time (:mod:`coopsat.network.routing`).
 
 Memory: the buffer holds ``(D + 1) · n`` values of every outbox field; for N = 1000
@@ -81,7 +83,9 @@ class DelayedNetwork:
         buffer = jax.tree_util.tree_map(lambda v: jnp.tile(v, (1, self.buffer_periods)), outbox0)
         state = {"buffer": buffer, "tau": jnp.zeros((), jnp.int64), "next_draw": jnp.zeros((), jnp.int64)}
         if self.lossy and self.hold:
-            state["last"] = jax.tree_util.tree_map(lambda v: jnp.take(v, self.src, axis=-1), outbox0)
+            state["last"] = jax.tree_util.tree_map(
+                lambda v: jnp.take(v, self.src, axis=-1), outbox0
+            ), jax.tree_util.tree_map(lambda v: jnp.take(v, self.dst, axis=-1), outbox0)
         return state
 
     def _tau(self, frame, state, key):
@@ -104,19 +108,21 @@ class DelayedNetwork:
         k_tau, k_loss = jax.random.split(key)
         tau, next_draw = self._tau(frame, state, k_tau) if self.random else (state["tau"], state["next_draw"])
         delay = jnp.minimum(self.delay_periods[row] + self.hops[row] * tau, self.buffer_periods - 1)
-        index = ((frame - delay) % self.buffer_periods) * n + self.src
-        msg = jax.tree_util.tree_map(lambda b: jnp.take(b, index, axis=-1), buffer)
+        slot_then = ((frame - delay) % self.buffer_periods) * n
+        msg = jax.tree_util.tree_map(lambda b: jnp.take(b, slot_then + self.src, axis=-1), buffer)
+        own = jax.tree_util.tree_map(lambda b: jnp.take(b, slot_then + self.dst, axis=-1), buffer)
         weight = self.weight[row]
         new_state = {"buffer": buffer, "tau": tau, "next_draw": next_draw}
         if self.lossy:
             lost = jax.random.uniform(k_loss, weight.shape) < self.loss_probability[row]
             if self.hold:
-                msg = jax.tree_util.tree_map(lambda new, old: jnp.where(lost, old, new), msg, state["last"])
-                new_state["last"] = msg
+                keep = lambda new, old: jnp.where(lost, old, new)  # noqa: E731
+                msg, own = jax.tree_util.tree_map(keep, (msg, own), state["last"])
+                new_state["last"] = (msg, own)
             else:
                 weight = jnp.where(lost, 0.0, weight)
         record = {"network_tau_periods": tau} if self.random else {}
-        return Inbox(msg, weight, self.dst), new_state, record
+        return Inbox(msg, weight, self.dst, own), new_state, record
 
     def output_specs(self):
         if not self.random:

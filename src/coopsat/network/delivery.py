@@ -49,11 +49,16 @@ class Inbox(NamedTuple):
         or (with ``on_loss = "drop"``) whose message was lost.
     dst : int (E,) or (d, n)
         Receiver of each link (for sums over a receiver's links).
+    own : dict of arrays
+        Per link, the *receiver's own* outbox from the same instant as the message it got (as
+        ``msg``): what a protocol that delays the whole relative state uses. Free when unused
+        (XLA drops what no law reads).
     """
 
     msg: dict
     weight: jnp.ndarray
     dst: jnp.ndarray
+    own: dict
 
 
 def active_row(switch_ticks, tick):
@@ -88,7 +93,8 @@ class IdealNetwork:
     def deliver(self, tick, outbox, state, key):
         """(inbox, state, record) of this period; the outbox is component-major ``(k, n)``."""
         msg = deliver_ideal(outbox, self.src, spacecraft_axis=-1)
-        return Inbox(msg, self.weight[active_row(self.switch_ticks, tick)], self.dst), state, {}
+        own = deliver_ideal(outbox, self.dst, spacecraft_axis=-1)
+        return Inbox(msg, self.weight[active_row(self.switch_ticks, tick)], self.dst, own), state, {}
 
     def output_specs(self):
         return {}

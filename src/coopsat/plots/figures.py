@@ -73,6 +73,18 @@ def attitude_figure(ds):
     return fig
 
 
+def _per_axis_figure(ds, name, symbol, what):
+    values = _values(ds, name, "time", "spacecraft", "component")
+    t = ds["time"].values
+    fig, axes = _stacked(ds, 3, what)
+    for k, (ax, comp) in enumerate(zip(axes, ds["component"].values)):
+        for i, sc in enumerate(_names(ds)):
+            ax.plot(t, values[:, i, k], label=sc)
+        ax.set_ylabel(f"{symbol}_{comp} [{ds[name].attrs['units']}]")
+    axes[0].legend(loc="upper right", fontsize="small")
+    return fig
+
+
 def rate_figure(ds):
     """Body angular rates of every spacecraft against time.
 
@@ -86,15 +98,23 @@ def rate_figure(ds):
     matplotlib.figure.Figure
         Three stacked axes, ω_x, ω_y, ω_z, one line per spacecraft.
     """
-    omega = _values(ds, "omega", "time", "spacecraft", "component")
-    t = ds["time"].values
-    fig, axes = _stacked(ds, 3, "body angular rate")
-    for k, (ax, comp) in enumerate(zip(axes, ds["component"].values)):
-        for i, name in enumerate(_names(ds)):
-            ax.plot(t, omega[:, i, k], label=name)
-        ax.set_ylabel(f"ω_{comp} [{ds['omega'].attrs['units']}]")
-    axes[0].legend(loc="upper right", fontsize="small")
-    return fig
+    return _per_axis_figure(ds, "omega", "ω", "body angular rate")
+
+
+def angle_figure(ds):
+    """Small attitude angles of every spacecraft against time (small-angle model).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Run record with ``angle`` (time, spacecraft, component), rad.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three stacked axes, θ_x, θ_y, θ_z, one line per spacecraft.
+    """
+    return _per_axis_figure(ds, "angle", "θ", "attitude angle")
 
 
 def torque_figure(ds, spacecraft=0):
@@ -196,13 +216,15 @@ def standard_figures(ds, attitude_threshold_deg=None, rate_threshold_rad_s=None)
     Returns
     -------
     dict of str to matplotlib.figure.Figure
-        ``attitude``, ``rates``, ``torque_<first spacecraft name>`` (when a torque acts),
-        ``sync_error``.
+        ``attitude`` (quaternions, or angles in the small-angle model), ``rates``,
+        ``torque_<first spacecraft name>`` (when a torque acts), ``sync_error`` (quaternions).
     """
-    figures = {"attitude": attitude_figure(ds), "rates": rate_figure(ds)}
+    small_angle = "q" not in ds
+    figures = {"attitude": angle_figure(ds) if small_angle else attitude_figure(ds), "rates": rate_figure(ds)}
     if "torque" in ds:
         figures[f"torque_{_names(ds)[0]}"] = torque_figure(ds, 0)
-    figures["sync_error"] = sync_error_figure(ds, attitude_threshold_deg, rate_threshold_rad_s)
+    if not small_angle:
+        figures["sync_error"] = sync_error_figure(ds, attitude_threshold_deg, rate_threshold_rad_s)
     return figures
 
 

@@ -31,6 +31,7 @@ PLUGIN_MODULES = (
     "coopsat.plugins.force_actuators",
     "coopsat.plugins.wheel_actuators",
     "coopsat.plugins.pid",
+    "coopsat.plugins.leader_follower",
     "coopsat.plugins.networks",
     "coopsat.plugins.disturbances",
     "coopsat.plugins.sensors",

@@ -45,6 +45,8 @@ def _build(table, ctx):
     from coopsat.control.consensus import ConsensusLaw
     from coopsat.sim.system import as_arrays
 
+    if ctx.scenario.sim.attitude != "rigid-body":
+        raise DesignError(f"controller: {table.kind} acts on quaternions; it needs sim.attitude = \"rigid-body\"")
     track = table.kind == "consensus-track"
     q_ref0 = np.asarray(table.q_ref0 if track else [1.0, 0.0, 0.0, 0.0], dtype=float)
     return ConsensusLaw(

@@ -35,6 +35,8 @@ def _build_gravity_gradient(table, ctx):
     orbit = ctx.scenario.orbit
     if orbit is None:
         raise DesignError("disturbances: gravity-gradient needs an [orbit] table (the torque depends on the position)")
+    if ctx.scenario.sim.attitude != "rigid-body":
+        raise DesignError('disturbances: gravity-gradient needs sim.attitude = "rigid-body" (it depends on the attitude)')
     inertia = ctx.inertia_kgm2
     diagonal = all(np.count_nonzero(m - np.diag(np.diag(m))) == 0 for m in inertia)
     # Component-major, as the loop's arrays: (3, n) principal moments or (3, 3, n).

@@ -80,13 +80,20 @@ MAX_BUFFER_PERIODS = 1_000_000
 """Most periods of history the delay buffer may hold (memory grows as buffer × n × fields)."""
 
 
-def _build_delayed(table, ctx):
+def route_epochs(table, ctx):
+    """The heard pairs, hops and fixed delays (periods) of each topology epoch, as the network
+    model ``table`` delivers them (:class:`~coopsat.network.routing.Routes` per graph).
+
+    The ideal network: direct neighbours, one hop, no delay. Raises :class:`DesignError` on a
+    delay that is not a whole number of periods, an unknown link, or a switch that leaves two
+    spacecraft that heard each other with no route (relaying).
+    """
     import numpy as np
 
-    from coopsat.network import routing, topology
-    from coopsat.network.delay import DelayedNetwork
-    from coopsat.sim.system import as_arrays
+    from coopsat.network import routing
 
+    if table.kind == "ideal":
+        return [routing.direct_routes(a, np.zeros(a.shape, dtype=np.int64)) for a in ctx.adjacencies]
     where = "network.delivery"
     index = {name: k for k, name in enumerate(ctx.names)}
     default = _periods(table.delay_s, ctx, f"{where}.delay_s")
@@ -99,10 +106,6 @@ def _build_delayed(table, ctx):
         if not union[index[dst], index[src]]:
             raise DesignError(f"{where}.link_delays[{k}]: there is no link {src} -> {dst} in any graph of the run")
         overrides.append((index[src], index[dst], _periods(d, ctx, f"{where}.link_delays[{k}] delay")))
-    rd = table.random_delay
-    tau = (0, 0, 1, 1) if rd is None else tuple(
-        _periods(getattr(rd, f), ctx, f"{where}.random_delay.{f}") for f in ("min_s", "max_s", "hold_min_s", "hold_max_s")
-    )
     epochs = []
     for place, a in zip(ctx.graph_places, ctx.adjacencies):
         c = routing.link_delays(a, default, overrides)
@@ -115,6 +118,29 @@ def _build_delayed(table, ctx):
                     "what it delivered before; keep a path between them, or relay = false"
                 )
         epochs.append(routes)
+    return epochs
+
+
+def random_delay_periods(table, ctx):
+    """(min, max, hold_min, hold_max) of the random single-hop delay, control periods; all 0
+    (hold 1) without one."""
+    rd = getattr(table, "random_delay", None)
+    if rd is None:
+        return (0, 0, 1, 1)
+    where = "network.delivery.random_delay"
+    return tuple(_periods(getattr(rd, f), ctx, f"{where}.{f}") for f in ("min_s", "max_s", "hold_min_s", "hold_max_s"))
+
+
+def _build_delayed(table, ctx):
+    import numpy as np
+
+    from coopsat.network import topology
+    from coopsat.network.delay import DelayedNetwork
+    from coopsat.sim.system import as_arrays
+
+    where = "network.delivery"
+    epochs = route_epochs(table, ctx)
+    tau = random_delay_periods(table, ctx)
     links = topology.links_for_schedule([r.weight for r in epochs])
     pick = lambda m: np.stack([getattr(r, m)[links.dst, links.src] for r in epochs])  # noqa: E731
     hops, fixed = pick("hops"), pick("delay_periods")
@@ -128,7 +154,7 @@ def _build_delayed(table, ctx):
         *as_arrays((links.src, links.dst, links.weight, hops, fixed, loss, ctx.switch_ticks, *tau)),
         period_ticks=round(ctx.period_s / ctx.dt_s),
         buffer_periods=largest + 1,
-        random=rd is not None and tau[1] > 0,
+        random=tau[1] > 0,
         lossy=table.dropout_probability > 0,
         hold=table.on_loss == "hold",
     )

@@ -48,6 +48,8 @@ def _build_attitude(table, ctx):
     from coopsat.control.pid import AttitudePid as Part
     from coopsat.sim.system import as_arrays
 
+    if ctx.scenario.sim.attitude != "rigid-body":
+        raise DesignError('controller: attitude-pid acts on quaternions; it needs sim.attitude = "rigid-body"')
     q = np.asarray(table.q_target, dtype=float)
     i_max = np.inf if table.integral_max is None else table.integral_max
     return Part(*as_arrays((table.k_p, table.k_d, table.k_i, q / np.linalg.norm(q), table.period_s, i_max)))

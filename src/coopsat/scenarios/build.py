@@ -47,6 +47,8 @@ class Built:
         The plug-ins' design-time checks, by name.
     plugins : list of coopsat.plugins.Plugin
         The plug-ins of this run (controller, network, sensors, actuators, disturbances).
+    context : coopsat.plugins.BuildContext
+        What the builders saw (for design-time analysis after the run).
     warnings : list of str
         Design-time warnings (failed checks), also issued as :class:`DesignWarning`.
     """
@@ -61,6 +63,7 @@ class Built:
     record_interval_s: float
     checks: dict
     plugins: list
+    context: BuildContext
     warnings: list
 
     @property
@@ -156,6 +159,18 @@ def _checks(results):
     return [results] if isinstance(results, DesignCheck) else list(results)
 
 
+def _check_sensed_quantities(scenario, sensors):
+    """Every sensor measures a quantity the run's models have."""
+    have = {"angle" if scenario.sim.attitude == "small-angle" else "q", "omega"}
+    have |= {"r_eci", "v_eci"} if scenario.orbit is not None else set()
+    for k, s in enumerate(sensors):
+        if s.quantity not in have:
+            raise ScenarioError(
+                f"sensors[{k}]: measures '{s.quantity}', which this run does not have "
+                f"(sim.attitude = {scenario.sim.attitude!r}; quantities: {', '.join(sorted(have))})"
+            )
+
+
 def _check_commands(controller, actuators, places):
     """Every actuator executes a command its controller issues (a controller that commands
     nothing leaves its actuators at rest)."""
@@ -211,6 +226,7 @@ def build(scenario):
         except DesignError as err:
             raise ScenarioError(str(err)) from None
         used.append(plugin)
+    _check_sensed_quantities(scenario, parts["sensor"])
     act_places = [place for role, place, _ in _scenario_tables(scenario) if role == "actuator"]
     _check_commands(parts["controller"][0], parts["actuator"], act_places)
     forces = [a for a in parts["actuator"] if a.channel.startswith("force")]
@@ -224,6 +240,7 @@ def build(scenario):
     structure = Structure(
         n_spacecraft=n,
         gravity="none" if orbit is None else orbit.gravity,
+        attitude=scenario.sim.attitude,
         ticks_per_period=whole_ratio(period, dt),
         periods_per_record=whole_ratio(scenario.record_interval_s, period),
         substeps=scenario.sim.substeps,
@@ -234,6 +251,7 @@ def build(scenario):
         h_wheels_b=np.array([sc.h_wheels_b_nms for sc in scenario.spacecraft], dtype=float),
         r_eci=np.array([r for r, _ in rv], dtype=float),
         v_eci=np.array([v for _, v in rv], dtype=float),
+        angle_rad=np.array([sc.angle_rad for sc in scenario.spacecraft], dtype=float),
     )
     if all(np.count_nonzero(m - np.diag(np.diag(m))) == 0 for m in inertia):
         # Principal axes = body axes for every spacecraft: the loop takes the cheaper diagonal path.
@@ -272,5 +290,6 @@ def build(scenario):
         record_interval_s=scenario.record_interval_s,
         checks=checks,
         plugins=used,
+        context=ctx,
         warnings=notes,
     )

@@ -84,6 +84,11 @@ class Sim(Table):
     t_final_s: float = Field(gt=0, description="Run length, s.")
     dt_s: float = Field(gt=0, description="Base tick, s: integration step and time quantum.")
     substeps: int = Field(1, ge=1, le=64, description="RK4 steps per tick (per switch-free segment).")
+    attitude: Literal["rigid-body", "small-angle"] = Field(
+        "rigid-body",
+        description="Attitude model: the full rigid body (quaternion, Euler's equation), or small angles "
+        "about rest (θ̇ = ω, I ω̇ = τ per axis; SPEC §3).",
+    )
     record_interval_s: float | None = Field(
         None, gt=0, description="Time between recorded samples, s; default one control period."
     )
@@ -108,6 +113,7 @@ class SpacecraftDefaults(Table):
     omega_b_rad_s: Vec3 | None = None
     h_wheels_b_nms: Vec3 | None = None
     mass_kg: float | None = Field(None, gt=0)
+    angle_rad: Vec3 | None = None
 
 
 class Spacecraft(Table):
@@ -121,6 +127,7 @@ class Spacecraft(Table):
     )
     q_bi: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Initial attitude, body relative to inertial, scalar first.")
     omega_b_rad_s: Vec3 = Field([0.0, 0.0, 0.0], description="Initial body rate, body frame, rad/s.")
+    angle_rad: Vec3 = Field([0.0, 0.0, 0.0], description="Initial small attitude angles (small-angle model), rad.")
     h_wheels_b_nms: Vec3 = Field([0.0, 0.0, 0.0], description="Wheel angular momentum, body frame, N·m·s.")
     mass_kg: float | None = Field(None, gt=0, description="Mass, kg (needed when a force acts).")
     r_eci_m: Vec3 | None = None

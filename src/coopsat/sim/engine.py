@@ -70,8 +70,13 @@ def _wheels(system):
     return any(a.channel == "wheel_torque_b" for a in system.actuators)
 
 
+def _small_angle(system):
+    return system.structure.attitude == "small-angle"
+
+
 def _moving_fields(system):
-    fields = ("q_bi", "omega_b") + (("h_wheels_b",) if _wheels(system) else ())
+    attitude = ("angle_rad", "omega_b") if _small_angle(system) else ("q_bi", "omega_b")
+    fields = attitude + (("h_wheels_b",) if _wheels(system) else ())
     return fields if system.structure.gravity == "none" else fields + ("r_eci", "v_eci")
 
 
@@ -94,7 +99,7 @@ def _rk4(x, wrench, t, h, d_states, system):
 
     def f(xx, tt):
         w = _disturbance_wrench(system, tt, xx, d_states, wrench) if system.disturbances else wrench
-        d = plant_derivative(xx, w, system.plant, system.structure.gravity, AXIS)
+        d = plant_derivative(xx, w, system.plant, system.structure.gravity, AXIS, system.structure.attitude)
         return {k: getattr(d, k) for k in fields}
 
     def shifted(k, c):
@@ -162,7 +167,7 @@ def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched)
             lambda act, p: jnp.where(p.t_off_s >= t_in_period + dt, p.level_nm, 0.0) if act.pulsed else p.level_nm,
         )
         x = jax.lax.cond(switch_inside, split, lambda xx: smooth(xx, held), x)
-    return x._replace(q_bi=quat_normalize(x.q_bi, AXIS))
+    return x if _small_angle(system) else x._replace(q_bi=quat_normalize(x.q_bi, AXIS))
 
 
 # --- one control period ------------------------------------------------------------------------
@@ -171,7 +176,7 @@ def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched)
 def _truth(system, x):
     """The true state as named quantities, component-major: what ideal sensors read, and what
     a sample records of the plant."""
-    y = {"q": x.q_bi, "omega": x.omega_b}
+    y = {"angle": x.angle_rad, "omega": x.omega_b} if _small_angle(system) else {"q": x.q_bi, "omega": x.omega_b}
     if _wheels(system):
         y["h_wheels"] = x.h_wheels_b
     if system.structure.gravity != "none":
@@ -350,7 +355,7 @@ def output_specs(system):
     """
     from coopsat.sim.outputs import measured_output_spec, state_output_specs
 
-    specs = state_output_specs(_wheels(system), system.structure.gravity != "none")
+    specs = state_output_specs(_wheels(system), system.structure.gravity != "none", _small_angle(system))
     specs.update({f"measured_{s.quantity}": measured_output_spec(s.quantity) for s in system.sensors})
     for p in (system.controller, system.network, *system.sensors, *system.actuators, *system.disturbances):
         specs.update(p.output_specs())
@@ -402,7 +407,7 @@ MAX_CHUNK = 4096
 
 def _check_finite(samples, t_s, offset, batched, names=None):
     """Raise :class:`NonFiniteStateError` naming the first sample, spacecraft and field."""
-    for name in ("q", "omega", "h_wheels", "r_eci", "v_eci"):
+    for name in ("q", "angle", "omega", "h_wheels", "r_eci", "v_eci"):
         if name not in samples:
             continue
         a = np.asarray(samples[name])
@@ -412,7 +417,7 @@ def _check_finite(samples, t_s, offset, batched, names=None):
             k = idx[1] if batched else idx[0]
             sc = idx[-1]
             run = f"run {idx[0]}, " if batched else ""
-            label = {"q": "attitude q", "omega": "rate omega", "h_wheels": "wheel momentum"}.get(name, name)
+            label = {"q": "attitude q", "angle": "attitude angle", "omega": "rate omega", "h_wheels": "wheel momentum"}.get(name, name)
             who = names[sc] if names is not None else f"spacecraft index {sc}"
             raise NonFiniteStateError(
                 f"state became non-finite: {run}{label} of {who} at t = {t_s[offset + k]:g} s "

@@ -8,6 +8,7 @@ from coopsat._parts import OutputSpec
 
 _STATE_OUTPUTS = {
     "q": OutputSpec(("q_component",), "1", "", "attitude quaternion of body relative to inertial, scalar first"),
+    "angle": OutputSpec(("component",), "rad", "body", "small attitude angles about the body axes (small-angle model)"),
     "omega": OutputSpec(("component",), "rad/s", "body", "body angular rate relative to inertial"),
     "h_wheels": OutputSpec(("component",), "N m s", "body", "angular momentum of the wheels relative to the body"),
     "r_eci": OutputSpec(("component",), "m", "ECI", "position"),
@@ -15,15 +16,15 @@ _STATE_OUTPUTS = {
 }
 
 
-def state_output_specs(wheels, orbit):
-    """Specs of the recorded state: attitude and rate always; wheel momentum when wheels turn;
-    position and velocity when the run has an orbit.
+def state_output_specs(wheels, orbit, small_angle=False):
+    """Specs of the recorded state: attitude (quaternion, or angles in the small-angle model)
+    and rate always; wheel momentum when wheels turn; position and velocity with an orbit.
 
     Returns
     -------
     dict of str -> OutputSpec
     """
-    keys = ["q", "omega"] + (["h_wheels"] if wheels else []) + (["r_eci", "v_eci"] if orbit else [])
+    keys = ["angle" if small_angle else "q", "omega"] + (["h_wheels"] if wheels else []) + (["r_eci", "v_eci"] if orbit else [])
     return {k: _STATE_OUTPUTS[k] for k in keys}
 
 

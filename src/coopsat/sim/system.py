@@ -31,6 +31,8 @@ class Structure:
     n_spacecraft : int
     gravity : {"none", "two-body", "j2"}
         Translational force model; "none" freezes position and velocity.
+    attitude : {"rigid-body", "small-angle"}
+        Attitude model (:data:`coopsat.dynamics.plant.ATTITUDE_MODELS`).
     ticks_per_period : int
         Base ticks per control period (the controller's zero-order-hold interval).
     periods_per_record : int
@@ -41,6 +43,7 @@ class Structure:
 
     n_spacecraft: int
     gravity: str
+    attitude: str
     ticks_per_period: int
     periods_per_record: int
     substeps: int

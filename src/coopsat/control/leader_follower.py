@@ -1,0 +1,67 @@
+"""Leader–follower consensus under delay (SPEC §3): the paper's law (3) and the classical
+protocol, as flight software for the small-angle attitude model.
+
+Per axis each spacecraft is a double integrator, state x = (angle, rate); with unit inertia
+the torque is the paper's input u (``ẋ = A x + B u``, A = [[0, 1], [0, 0]], B = [0, 1]ᵀ).
+Follower i hears agent j (the leader among them) over the network, the message arriving
+``m_ji τ`` late:
+
+* law (3): ``u_i = K Σ_j a_ij (x_j(t − m_ji τ) − x_i(t))`` — its own state is current;
+* classical: ``u_i = K Σ_j a_ij (x_j(t − m_ji τ) − x_i(t − m_ji τ))`` — the whole relative
+  state is delayed (its own state of the same past instant, which the network delivers with
+  the message).
+
+The leader (``follower = 0``) flies free. K = [k_angle, k_rate] is the same on every axis.
+"""
+
+from coopsat import _jax  # noqa: F401
+
+import jax.numpy as jnp
+
+from coopsat._parts import OutputSpec, part
+from coopsat.control.consensus import own_at_links, per_receiver_sum
+
+PROTOCOLS = ("law3", "classical")
+
+
+@part(static=("protocol",))
+class LeaderFollower:
+    """Leader–follower flight software.
+
+    Attributes
+    ----------
+    gain : (2,)
+        K = [k_angle (N·m/rad), k_rate (N·m·s/rad)], per axis.
+    follower : (n,)
+        1 for a follower, 0 for the leader (which commands nothing).
+    protocol : {"law3", "classical"}
+        Static.
+    """
+
+    gain: jnp.ndarray
+    follower: jnp.ndarray
+    protocol: str
+
+    commands = ("torque_b",)
+
+    def init(self, n):
+        return ()
+
+    def outbox(self, y, state):
+        """Each spacecraft broadcasts its measured angles and rates."""
+        return {"angle": y["angle"], "omega": y["omega"]}
+
+    def step(self, t, y, inbox, state, key):
+        """Torque command (3, n): K times the weighted sum of the relative states heard."""
+        if self.protocol == "classical":
+            mine_angle, mine_rate = inbox.own["angle"], inbox.own["omega"]
+        else:
+            mine_angle, mine_rate = own_at_links(y["angle"], inbox.dst, 0), own_at_links(y["omega"], inbox.dst, 0)
+        per_link = inbox.weight * (
+            self.gain[0] * (inbox.msg["angle"] - mine_angle) + self.gain[1] * (inbox.msg["omega"] - mine_rate)
+        )
+        u = self.follower * per_receiver_sum(per_link, inbox.dst, y["omega"].shape[-1], 0)
+        return {"torque_b": u}, state, {"torque_command": u}
+
+    def output_specs(self):
+        return {"torque_command": OutputSpec(("component",), "N m", "body", "torque commanded by the law at the sample")}

@@ -1,0 +1,143 @@
+"""Leader–follower consensus under random multi-hop delay (SPEC §3) as a controller plug-in.
+
+The paper's law (3) and the classical protocol (:mod:`coopsat.control.leader_follower`) on the
+small-angle attitude model. Design-time: every follower must hear the leader; the tracking
+error system (two delays: one and two hops) is formed from the network's routes and the gain,
+and its exact constant-delay margin is computed (:mod:`coopsat.design.delay_margin`) and
+compared with the largest single-hop delay the network can draw. The paper's metrics and
+explanations live in :mod:`coopsat.analysis.papers.leader_follower_2018`.
+"""
+
+from typing import Literal
+
+from pydantic import Field
+
+from coopsat.plugins import DesignCheck, DesignError, Plugin, register
+from coopsat.plugins.tables import Table
+
+ANALYSIS = "coopsat.analysis.papers.leader_follower_2018"
+
+A_AXIS = [[0.0, 1.0], [0.0, 0.0]]
+"""Per-axis state matrix of the small-angle model, x = (angle, rate)."""
+
+B_AXIS = [[0.0], [1.0]]
+"""Per-axis input matrix (unit inertia: the torque is the angular acceleration)."""
+
+
+class LeaderFollowerTable(Table):
+    """``kind = "leader-follower"``: followers track a free-flying leader over a delayed network."""
+
+    kind: Literal["leader-follower"]
+    period_s: float = Field(gt=0, description="Control period (zero-order hold), s.")
+    protocol: Literal["law3", "classical"] = Field(
+        "law3",
+        description="law3: own state current, what is heard delayed (paper eq. 3); classical: the whole "
+        "relative state delayed.",
+    )
+    gain: tuple[float, float] = Field(description="K = [k_angle (N·m/rad), k_rate (N·m·s/rad)], every axis.")
+    leader: str | None = Field(None, description="The leader spacecraft (default the first).")
+
+
+def _leader_index(table, ctx):
+    name = table.leader or ctx.names[0]
+    if name not in ctx.names:
+        raise DesignError(f"controller.leader: unknown spacecraft '{name}' (known: {', '.join(ctx.names)})")
+    return ctx.names.index(name)
+
+
+def follower_hops(table, ctx):
+    """Hops and weights from every agent to every follower, epoch by epoch.
+
+    Returns
+    -------
+    list of (hops, weights)
+        Each (N, N + 1): row i is the i-th follower (state order), column 0 the leader, column
+        1 + j the j-th follower; ``hops`` 0 where not heard.
+
+    Raises
+    ------
+    DesignError
+        A follower that cannot hear the leader in some epoch.
+    """
+    import numpy as np
+
+    from coopsat.plugins.networks import route_epochs
+
+    lead = _leader_index(table, ctx)
+    followers = [k for k in range(ctx.n) if k != lead]
+    agents = [lead, *followers]
+    out = []
+    for place, routes in zip(ctx.graph_places, route_epochs(ctx.scenario.network.delivery, ctx)):
+        hops = routes.hops[np.ix_(followers, agents)]
+        deaf = [ctx.names[f] for f, h in zip(followers, hops[:, 0]) if h == 0]
+        if deaf:
+            raise DesignError(
+                f"{place}: {', '.join(deaf)} cannot hear the leader {ctx.names[lead]} "
+                "(give a link or a route, with network.delivery relay = true)"
+            )
+        out.append((hops, routes.weight[np.ix_(followers, agents)]))
+    return out
+
+
+def _build(table, ctx):
+    import numpy as np
+
+    from coopsat.control.leader_follower import LeaderFollower
+    from coopsat.sim.system import as_arrays
+
+    if ctx.scenario.sim.attitude != "small-angle":
+        raise DesignError('controller: leader-follower acts on small angles; it needs sim.attitude = "small-angle"')
+    follower_hops(table, ctx)  # every follower hears the leader
+    follower = np.ones(ctx.n)
+    follower[_leader_index(table, ctx)] = 0.0
+    return LeaderFollower(*as_arrays((np.asarray(table.gain, dtype=float), follower)), protocol=table.protocol)
+
+
+def largest_hop_delay_s(ctx):
+    """The largest single-hop delay the network can impose (fixed plus random bound), s; None
+    when per-link delays differ (the margin of a single τ does not apply)."""
+    from coopsat.plugins.networks import random_delay_periods
+
+    delivery = ctx.scenario.network.delivery
+    if delivery.kind == "ideal":
+        return 0.0
+    if delivery.link_delays:
+        return None
+    return delivery.delay_s + random_delay_periods(delivery, ctx)[1] * ctx.period_s
+
+
+def error_system(table, ctx, gain=None):
+    """Per-axis tracking-error system (A0, [(A_m, m)]) of the scenario at t = 0 (first epoch)."""
+    from coopsat.design.delay_margin import leader_follower_error_system
+
+    hops, weights = follower_hops(table, ctx)[0]
+    k = [list(table.gain if gain is None else gain)]
+    return leader_follower_error_system(A_AXIS, B_AXIS, k, hops, table.protocol, weights)
+
+
+def check_delay_margin(table, ctx):
+    """The exact constant-delay margin of the protocol with this gain, against the network's
+    largest single-hop delay."""
+    import math
+
+    from coopsat.design.delay_margin import exact_delay_margin
+
+    margin = exact_delay_margin(*error_system(table, ctx))
+    bound = largest_hop_delay_s(ctx)
+    metrics = {"delay_margin_s": margin.tau_s, "delay_margin_omega_rad_s": margin.omega_rad_s}
+    what = f"{table.protocol} with K = [{table.gain[0]:g}, {table.gain[1]:g}]"
+    if not margin.stable_without_delay:
+        return DesignCheck("delay-margin", False, f"{what}: the error system is unstable even without delay", metrics, margin)
+    text = (
+        "stable for every constant delay (no imaginary-axis crossing)" if math.isinf(margin.tau_s)
+        else f"exact constant single-hop delay margin {margin.tau_s:.6g} s (crossing at {margin.omega_rad_s:.4g} rad/s)"
+    )
+    if bound is None:
+        return DesignCheck("delay-margin", True, f"{what}: {text}; per-link delays differ, not compared", metrics, margin)
+    metrics["largest_hop_delay_s"] = bound
+    ok = bound < margin.tau_s
+    verdict = "within it" if ok else "ABOVE it: expect oscillation or divergence at the largest delays"
+    return DesignCheck("delay-margin", ok, f"{what}: {text}; the network's largest hop delay {bound:g} s is {verdict}", metrics, margin)
+
+
+register(Plugin("controller", "leader-follower", LeaderFollowerTable, _build, (check_delay_margin,), ANALYSIS))

@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|margin|bench``.
+"""Command line: ``coopsat list|show|validate|run|margin|design|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -103,6 +103,68 @@ def _cmd_margin(args):
     return 0
 
 
+def _leader_follower(args):
+    from coopsat.pipeline import prepare
+    from coopsat.scenarios.load import ScenarioError, load_scenario
+
+    built = prepare(load_scenario(args.scenario, args.set))
+    if built.scenario.controller.kind != "leader-follower":
+        raise ScenarioError(
+            f"{built.scenario.name}: design delay-gain needs a leader-follower controller, not {built.scenario.controller.kind}"
+        )
+    return built
+
+
+def _print_certificate(result):
+    for name, value in result.relative_margins.items():
+        print(f"    {name}: relative eigenvalue margin {value:.3g}")
+
+
+def _cmd_design_delay_gain(args):
+    from pathlib import Path
+
+    from coopsat.plugins import DesignError
+    from coopsat.plugins.leader_follower import design, largest_certified_h, largest_hop_delay_s
+    from coopsat.scenarios.load import ScenarioError
+
+    built = _leader_follower(args)
+    table, ctx = built.scenario.controller, built.context
+    if args.analyse:
+        found = largest_certified_h(table, ctx)
+        margin = built.checks["delay-margin"].detail
+        print(f"{table.protocol} with K = [{table.gain[0]:g}, {table.gain[1]:g}]: the LMI certifies 0 <= d(t) <= "
+              f"{found.value:.6g} s (exact constant-delay margin {margin.tau_s:.6g} s)")
+        print(f"  condition: {found.result.condition}")
+        print(f"  solver {found.result.solver}, status {found.result.status}, {found.n_solves} problems solved")
+        _print_certificate(found.result)
+        return 0
+    h = args.h if args.h is not None else largest_hop_delay_s(ctx)
+    if not h:
+        raise ScenarioError("design delay-gain: give --h (the scenario's network has no delay to design for)")
+    try:
+        result, margin = design(table, ctx, h)
+    except DesignError as err:
+        raise ScenarioError(str(err)) from None
+    k = [float(v) for v in result.gain.ravel()]
+    print(f"{table.protocol}: K = [{k[0]:.6g}, {k[1]:.6g}] certified for 0 <= d(t) <= {result.h:g} s, "
+          f"V(t) <= V(0) exp(-{result.alpha:.4g} t)")
+    print(f"  condition: {result.condition} ({result.reference})")
+    print(f"  solver {result.solver}, status {result.status}, {result.n_evaluations} gains evaluated")
+    _print_certificate(result.result)
+    print(f"  exact constant-delay margin of this K: {margin.tau_s:.6g} s (>= the certified h, as it must be)")
+    source = args.scenario if not str(args.scenario).endswith(".toml") else str(Path(args.scenario).resolve())
+    out = Path(args.out or f"{built.scenario.name}-delay-gain.toml")
+    out.write_text(
+        f"# Written by coopsat design delay-gain: K certified by the delay-dependent LMI for every\n"
+        f"# time-varying single-hop delay 0 <= d(t) <= {result.h:g} s; decay rate {result.alpha:.4g} 1/s;\n"
+        f"# {result.solver}, {result.status}. Run it: coopsat run {out}\n"
+        f'extends = "{source}"\n\n[controller]\ngain = [{k[0]!r}, {k[1]!r}]\n',
+        encoding="utf-8",
+    )
+    print(f"wrote {out}")
+    return 0
+
+
 def _cmd_bench(args):
     from coopsat.bench import run_benchmarks
 
@@ -140,6 +202,18 @@ def build_parser():
     margin.add_argument("scenario")
     margin.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
     margin.set_defaults(func=_cmd_margin)
+
+    design_p = sub.add_parser("design", help="design-time synthesis")
+    design_sub = design_p.add_subparsers(dest="what", required=True)
+    dg = design_sub.add_parser(
+        "delay-gain", help="gain certified by a delay-dependent LMI for time-varying delay up to h (leader-follower)"
+    )
+    dg.add_argument("scenario")
+    dg.add_argument("--h", type=float, help="delay bound to certify, s (default: the network's largest single-hop delay)")
+    dg.add_argument("--analyse", action="store_true", help="no synthesis: the largest h the LMI certifies for the scenario's K")
+    dg.add_argument("--out", help="file that receives the designed gain (default <scenario>-delay-gain.toml)")
+    dg.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    dg.set_defaults(func=_cmd_design_delay_gain)
 
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")

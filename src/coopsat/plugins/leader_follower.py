@@ -140,4 +140,92 @@ def check_delay_margin(table, ctx):
     return DesignCheck("delay-margin", ok, f"{what}: {text}; the network's largest hop delay {bound:g} s is {verdict}", metrics, margin)
 
 
-register(Plugin("controller", "leader-follower", LeaderFollowerTable, _build, (check_delay_margin,), ANALYSIS))
+
+
+GAIN_BOUNDS = ((0.05, 20.0), (0.05, 20.0))
+"""Search box of K = [k_angle, k_rate] for the delay-gain design (N·m/rad, N·m·s/rad)."""
+
+
+def certify(table, ctx, h_s, gain=None):
+    """The delay-dependent LMI for time-varying single-hop delay 0 ≤ d(t) ≤ h: the largest
+    decay rate α certified at ``h_s`` (0 and not certified when none is).
+
+    Returns
+    -------
+    coopsat.design.lmi.CertifiedBound
+    """
+    from coopsat.design.lmi import max_decay_rate
+
+    return max_decay_rate(*error_system(table, ctx, gain), h_s)
+
+
+def largest_certified_h(table, ctx, gain=None):
+    """Analysis mode: the largest h the LMI certifies for the scenario's (or the given) gain.
+
+    Returns
+    -------
+    coopsat.design.lmi.CertifiedBound
+    """
+    from coopsat.design.lmi import max_certified_delay
+
+    return max_certified_delay(*error_system(table, ctx, gain))
+
+
+def design(table, ctx, h_s):
+    """Synthesis: the gain K the LMI certifies for every time-varying single-hop delay up to
+    ``h_s`` with the largest decay rate (derivative-free search over K, one convex problem per
+    candidate), checked against the exact constant-delay margin of the design.
+
+    Returns
+    -------
+    (coopsat.design.lmi.DelayGainDesign, coopsat.design.delay_margin.DelayMargin)
+
+    Raises
+    ------
+    DesignError
+        No gain is certified at ``h_s`` (the message gives the largest h found), or the
+        certificate exceeds the exact margin (an inconsistency that must never pass).
+    """
+    import numpy as np
+
+    from coopsat.design.delay_margin import exact_delay_margin
+    from coopsat.design.lmi import design_gain
+
+    try:
+        result = design_gain(
+            lambda k: error_system(table, ctx, np.ravel(k)), h_s, np.asarray([table.gain], dtype=float), GAIN_BOUNDS,
+        )
+    except ValueError as err:
+        raise DesignError(f"design delay-gain: {err}") from None
+    margin = exact_delay_margin(*error_system(table, ctx, np.ravel(result.gain)))
+    if result.h > margin.tau_s:
+        raise DesignError(
+            f"design delay-gain: the LMI certified h = {result.h:g} s above the exact constant-delay margin "
+            f"{margin.tau_s:g} s of its gain: the certificate is wrong and is not used"
+        )
+    return result, margin
+
+
+def check_time_varying(table, ctx):
+    """With a random (time-varying) delay: does the LMI certify the gain for d(t) up to the
+    network's largest single-hop delay, and at what decay rate?"""
+    from coopsat.plugins.networks import random_delay_periods
+
+    delivery = ctx.scenario.network.delivery
+    bound = largest_hop_delay_s(ctx)
+    if delivery.kind == "ideal" or random_delay_periods(delivery, ctx)[1] == 0 or not bound:
+        return None
+    found = certify(table, ctx, bound)
+    r = found.result
+    what = f"time-varying delay 0 ≤ d(t) ≤ {bound:g} s"
+    metrics = {"lmi_certified": float(r.certified), "lmi_decay_rate_1_s": found.value}
+    if r.certified:
+        note = f"{table.protocol}: the delay-dependent LMI certifies {what}, V(t) ≤ V(0)·exp(−{found.value:.4g} t) ({r.solver})"
+    else:
+        note = f"{table.protocol}: the delay-dependent LMI does not certify {what} for this gain ({r.status}); not a proof of instability"
+    return DesignCheck("delay-lmi", bool(r.certified), note, metrics, found)
+
+
+register(
+    Plugin("controller", "leader-follower", LeaderFollowerTable, _build, (check_delay_margin, check_time_varying), ANALYSIS)
+)

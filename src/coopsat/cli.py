@@ -6,9 +6,13 @@ and exits with status 2, without a traceback and without leaving a half-written 
 """
 
 import argparse
+import signal
 import sys
+import threading
 
 EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 
 def _input_errors():
@@ -32,10 +36,14 @@ def _cmd_list(args):
 
 
 def _cmd_show(args):
-    from coopsat.scenarios.load import bundled_text, load_scenario, resolved_toml
+    from pathlib import Path
+
+    from coopsat.scenarios.load import bundled_text, load_scenario, read_scenario_text, resolved_toml
 
     if args.resolved:
         print(resolved_toml(load_scenario(args.name)), end="")
+    elif args.name.endswith(".toml") or len(Path(args.name).parts) > 1:
+        print(read_scenario_text(Path(args.name)), end="")
     else:
         print(bundled_text(args.name), end="")
     return 0
@@ -179,7 +187,7 @@ def build_parser():
 
     sub.add_parser("list", help="list the bundled scenarios").set_defaults(func=_cmd_list)
 
-    show = sub.add_parser("show", help="print a bundled scenario's TOML")
+    show = sub.add_parser("show", help="print a scenario's TOML (bundled name or file)")
     show.add_argument("name")
     show.add_argument("--resolved", action="store_true", help="with every default filled in and 'extends' resolved")
     show.set_defaults(func=_cmd_show)
@@ -223,14 +231,41 @@ def build_parser():
     return p
 
 
+class _Terminated(BaseException):
+    """SIGTERM, raised where Python next runs (like KeyboardInterrupt for SIGINT), so that the
+    same clean-up runs: a half-written run folder is removed."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated()
+
+
 def main(argv=None):
-    """Entry point of the ``coopsat`` command; returns the exit status."""
+    """Entry point of the ``coopsat`` command; returns the exit status.
+
+    Bad input: one line, status 2. SIGINT (Ctrl-C) and SIGTERM end a run promptly (between two
+    compiled chunks of the loop) with one line and status 130 or 143, leaving nothing behind.
+    """
     args = build_parser().parse_args(argv)
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    if in_main_thread:
+        # Also when started in the background by a shell, which leaves SIGINT ignored.
+        previous = (signal.signal(signal.SIGINT, signal.default_int_handler), signal.signal(signal.SIGTERM, _on_sigterm))
     try:
         return args.func(args)
     except _input_errors() as err:
         print(f"coopsat: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("coopsat: interrupted (SIGINT); nothing written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except _Terminated:
+        print("coopsat: terminated (SIGTERM); nothing written", file=sys.stderr)
+        return EXIT_TERMINATED
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGINT, previous[0])
+            signal.signal(signal.SIGTERM, previous[1])
 
 
 if __name__ == "__main__":

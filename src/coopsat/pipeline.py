@@ -130,6 +130,13 @@ def _json_ready(obj):
     return obj
 
 
+def _umask():
+    """The process's file-mode creation mask (read by setting and restoring it)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 RUN_MARKER = "run.json"
 """Written into every run folder (what ran, when, with which coopsat): only a folder holding
 it is ever replaced by a new run."""
@@ -173,6 +180,7 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
     try:
         out_dir.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+        tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it private (0700); a run folder follows the umask
     except OSError as err:
         raise RunFolderError(f"--out {out_dir}: {err.strerror or err}") from None
     try:

@@ -13,7 +13,7 @@ from typing import Literal
 from pydantic import Field
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
-from coopsat.plugins.tables import Table
+from coopsat.plugins.tables import Record, Table
 
 ANALYSIS = "coopsat.analysis.papers.leader_follower_2018"
 
@@ -34,7 +34,7 @@ class LeaderFollowerTable(Table):
         description="law3: own state current, what is heard delayed (paper eq. 3); classical: the whole "
         "relative state delayed.",
     )
-    gain: tuple[float, float] = Field(description="K = [k_angle (N·m/rad), k_rate (N·m·s/rad)], every axis.")
+    gain: Record(float, float) = Field(description="K = [k_angle (N·m/rad), k_rate (N·m·s/rad)], every axis.")
     leader: str | None = Field(None, description="The leader spacecraft (default the first).")
 
 

@@ -6,7 +6,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from coopsat.plugins import DesignError, Plugin, register
-from coopsat.plugins.tables import Table
+from coopsat.plugins.tables import Record, Table
 
 
 class IdealDelivery(Table):
@@ -49,7 +49,7 @@ class DelayedDelivery(Table):
 
     kind: Literal["delayed"]
     delay_s: float = Field(0.0, ge=0, description="Fixed delay of every hop, s (whole control periods).")
-    link_delays: list[tuple[str, str, float]] = Field(
+    link_delays: list[Record(str, str, float)] = Field(
         [], description="[transmitter, receiver, delay_s] per direction of a link: overrides delay_s there."
     )
     relay: bool = Field(

@@ -7,17 +7,33 @@ checked by the annotated types below (one definition each).
 from typing import Annotated
 
 import numpy as np
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
 QUAT_NORM_TOL = 0.05
 """Scenario quaternions are normalised at load; a norm further than this from 1 is a typo."""
 
 
 class Table(BaseModel):
-    """Base of every scenario table: unknown keys, NaN and infinity are errors."""
+    """Base of every scenario table: unknown keys, NaN, infinity and wrong types are errors.
+
+    Strict: a bool or a string where a number belongs (``alpha = true``, ``dt_s = "0.01"``) or
+    a string where a bool belongs (``short_way = "yes"``) is refused, not coerced; an integer
+    is a valid float (TOML writes ``1`` for 1.0).
+    """
 
     # NaN and infinity are never valid input (an unsaturated actuator omits torque_max_nm).
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+
+
+def _list_as_tuple(v):
+    # TOML has arrays, not tuples: accept an array where a fixed-length record is expected
+    # (its elements are still validated strictly).
+    return tuple(v) if isinstance(v, list) else v
+
+
+def Record(*types):  # noqa: N802 (a type constructor, used like tuple[...])
+    """A fixed-length TOML array of the given element types, validated strictly."""
+    return Annotated[tuple[types], BeforeValidator(_list_as_tuple)]
 
 
 def _check_quaternion(q):

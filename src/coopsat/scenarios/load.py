@@ -6,6 +6,7 @@ No code runs from a scenario file: it is parsed with :mod:`tomllib` and validate
 """
 
 import copy
+import re
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -32,8 +33,40 @@ def bundled_names():
 def bundled_text(name):
     """TOML text of a bundled scenario."""
     if name not in bundled_names():
-        raise ScenarioError(f"no bundled scenario named '{name}' (coopsat list shows them)")
+        raise ScenarioError(f"no bundled scenario named '{clip_echo(name)}' (coopsat list shows them)")
     return resources.files(BUNDLED_PACKAGE).joinpath(f"{name}.toml").read_text(encoding="utf-8")
+
+
+MAX_SCENARIO_BYTES = 10 * 2**20
+"""Largest scenario file read, bytes (a scenario is a page of text; this is far beyond one)."""
+
+
+def read_scenario_text(path):
+    """The text of a scenario file, or one line saying what is wrong with the file.
+
+    Raises
+    ------
+    ScenarioError
+        Missing, a directory, unreadable (permissions, I/O), larger than
+        :data:`MAX_SCENARIO_BYTES`, binary, or not UTF-8 (e.g. UTF-16).
+    """
+    shown = clip_path(path)
+    if not path.exists():
+        raise ScenarioError(f"{shown}: no such scenario file")
+    if path.is_dir():
+        raise ScenarioError(f"{shown}: is a directory, not a scenario file")
+    try:
+        if path.stat().st_size > MAX_SCENARIO_BYTES:
+            raise ScenarioError(f"{shown}: {path.stat().st_size} bytes is too large for a scenario file (at most 10 MiB)")
+        data = path.read_bytes()
+    except OSError as err:
+        raise ScenarioError(f"{shown}: cannot be read ({err.strerror or err})") from None
+    if b"\x00" in data:
+        raise ScenarioError(f"{shown}: is a binary file, not TOML text (UTF-16 text also contains NUL bytes: save it as UTF-8)")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise ScenarioError(f"{shown}: is not UTF-8 text (byte {err.start}); save the scenario as UTF-8") from None
 
 
 def read_raw(name_or_path, _depth=0):
@@ -52,16 +85,14 @@ def read_raw(name_or_path, _depth=0):
     path = Path(name_or_path)
     # A bare name is a bundled scenario even if a folder of that name is lying around.
     if path.suffix == ".toml" or path.is_file() or len(path.parts) > 1:
-        if not path.is_file():
-            raise ScenarioError(f"{name_or_path}: no such scenario file")
-        text = path.read_text(encoding="utf-8")
-        origin, default_name = str(path), path.stem
+        text = read_scenario_text(path)
+        origin, default_name = clip_path(path), path.stem
     else:
-        text, origin, default_name = bundled_text(str(name_or_path)), str(name_or_path), str(name_or_path)
+        text, origin, default_name = bundled_text(str(name_or_path)), clip_echo(name_or_path), str(name_or_path)
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ScenarioError(f"{origin}: not valid TOML: {err}") from None
+        raise ScenarioError(f"{origin}: not valid TOML: {clip_echo(err, 4 * ECHO_MAX)}") from None
     base = raw.pop("extends", None)
     if base is not None:
         if not isinstance(base, str):
@@ -113,28 +144,28 @@ def apply_override(raw, assignment):
     clears the table's other fields first (set them after it).
     """
     if "=" not in assignment:
-        raise ScenarioError(f"--set {assignment}: expected key.path=value")
+        raise ScenarioError(f"--set {clip_echo(assignment)}: expected key.path=value")
     key, value = assignment.split("=", 1)
     parts = [p for p in key.strip().split(".") if p]
     if not parts:
-        raise ScenarioError(f"--set {assignment}: empty key")
+        raise ScenarioError(f"--set {clip_echo(assignment)}: empty key")
     node = raw
     for depth, part in enumerate(parts[:-1]):
         where = ".".join(parts[: depth + 1])
         if isinstance(node, list):
             if not part.isdigit() or int(part) >= len(node):
-                raise ScenarioError(f"--set {key}: {where} is not an index of a list of {len(node)}")
+                raise ScenarioError(f"--set {clip_echo(key)}: {clip_echo(where)} is not an index of a list of {len(node)}")
             node = node[int(part)]
         else:
             node = node.setdefault(part, {})
         if not isinstance(node, (dict, list)):
-            raise ScenarioError(f"--set {key}: {where} is a value, not a table")
+            raise ScenarioError(f"--set {clip_echo(key)}: {clip_echo(where)} is a value, not a table")
     last = parts[-1]
     if last == "kind" and isinstance(node, dict) and _kind_changes(node, _parse_value(value.strip())):
         node.clear()  # another kind is another implementation: start its table afresh (as extends does)
     if isinstance(node, list):
         if not last.isdigit() or int(last) >= len(node):
-            raise ScenarioError(f"--set {key}: {last} is not an index of a list of {len(node)}")
+            raise ScenarioError(f"--set {clip_echo(key)}: {clip_echo(last)} is not an index of a list of {len(node)}")
         node[int(last)] = _parse_value(value.strip())
     else:
         node[last] = _parse_value(value.strip())
@@ -166,8 +197,32 @@ def _merge_defaults(raw):
     return raw
 
 
+ECHO_MAX = 80
+"""Longest piece of the user's input (a key, a value) echoed in an error message, characters."""
+
+
+def clip_echo(text, limit=ECHO_MAX):
+    """``text`` cut to ``limit`` characters (with how much was cut), so that an error message
+    never repeats unbounded input."""
+    text = str(text)
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters)"
+
+
+def clip_path(path, limit=4 * ECHO_MAX):
+    """A path for a message: its end (the file's name) kept when it is long."""
+    text = str(path)
+    return text if len(text) <= limit else f"…{text[-limit:]}"
+
+
+_TOML_TYPE = {bool: "a boolean", str: "a string", int: "an integer", float: "a number", list: "an array", dict: "a table"}
+
+
 def format_validation_error(err, prefix=""):
-    """One line naming each failing field: ``controller.alpha: Input should be greater than 0``."""
+    """One line naming each failing field: ``controller.alpha: Input should be greater than 0``.
+
+    A wrong type says what was found (``controller.alpha: Input should be a valid number, got a
+    boolean (true)``); keys and values from the file are cut to :data:`ECHO_MAX` characters.
+    """
     from coopsat.plugins import all_kinds
 
     tags = all_kinds()  # pydantic puts the kind of a tagged union in the error's location
@@ -178,11 +233,14 @@ def format_validation_error(err, prefix=""):
             if isinstance(p, int):
                 parts[-1:] = [f"{parts[-1]}[{p}]"] if parts else [f"[{p}]"]
             elif p not in tags:
-                parts.append(str(p))
+                parts.append(clip_echo(p))
         where = ".".join(parts) or "scenario"
-        text = e["msg"].removeprefix("Value error, ")
+        text = clip_echo(e["msg"].removeprefix("Value error, "), 4 * ECHO_MAX)
         if e["type"] == "extra_forbidden":
             text = "unknown field (misspelt?)"
+        elif e["type"].endswith("_type") and type(e.get("input")) in _TOML_TYPE:
+            shown = str(e["input"]).lower() if isinstance(e["input"], bool) else repr(e["input"])
+            text += f", got {_TOML_TYPE[type(e['input'])]} ({clip_echo(shown, 40)})"
         msgs.append(f"{where}: {text}")
     extra = f" (+{len(msgs) - 3} more)" if len(msgs) > 3 else ""
     return "; ".join(msgs[:3]) + extra
@@ -215,7 +273,16 @@ def load_scenario(name_or_path, overrides=()):
 
 def resolved_toml(scenario):
     """The validated scenario with every default filled in, as TOML text (replayable)."""
-    return tomli_w.dumps(_plain(scenario.model_dump(exclude_none=True)))
+    return _inline_vectors(tomli_w.dumps(_plain(scenario.model_dump(exclude_none=True))))
+
+
+_SCALAR_ARRAY = re.compile(r"\[\n((?:[ \t]*[^\[\]\n]+,\n)+)[ \t]*\]")
+
+
+def _inline_vectors(text):
+    """Arrays of scalars on one line (``[0.5, 0.0, 0.5]``); tomli_w writes one element per line.
+    Arrays of arrays keep one inner array per line."""
+    return _SCALAR_ARRAY.sub(lambda m: "[" + ", ".join(x.strip().rstrip(",") for x in m.group(1).splitlines()) + "]", text)
 
 
 def _plain(obj):

@@ -16,7 +16,7 @@ from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from coopsat.astro.constants import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
 from coopsat.plugins import plugins
-from coopsat.plugins.tables import Quat, Table, Vec3, check_finite, whole_ratio
+from coopsat.plugins.tables import Quat, Record, Table, Vec3, check_finite, whole_ratio
 
 MAX_TICKS = 1e10
 """Longest run in base ticks (about 10 hours of compute at the engine's speed for N = 5)."""
@@ -164,7 +164,7 @@ class Graph(Table):
     directed: bool = Field(False, description="Named graphs and edge lists: one-way links (i hears j only).")
     weight: float = Field(1.0, gt=0, description="Weight of every link of a named graph.")
     hub: str | None = Field(None, description="Star: the hub spacecraft (default the first).")
-    edges: list[tuple[str, str, float]] | None = Field(
+    edges: list[Record(str, str, float)] | None = Field(
         None, description="kind = 'edges': [transmitter, receiver, weight] by spacecraft name."
     )
     adjacency: list[list[float]] | None = Field(None, description="kind = 'adjacency': A[i][j] = weight with which i hears j.")

@@ -446,8 +446,7 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         Spacecraft names, for error messages.
     chunk : int, optional
         Record intervals per compiled call. Default: a power of two (so that runs of similar
-        length reuse the compiled program) covering the whole run, at most :data:`MAX_CHUNK`,
-        or about 1/50 of the run when a progress bar is shown.
+        length reuse the compiled program) near 1/50 of the run, at most :data:`MAX_CHUNK`.
 
     Returns
     -------
@@ -461,7 +460,9 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     if chunk is None:
         # Powers of two, so that runs of different lengths share compiled programs (the padded
         # record intervals of the last chunk are skipped, not simulated).
-        chunk = min(2 ** math.ceil(math.log2(max(1, n_records / 50 if progress else n_records))), MAX_CHUNK)
+        # About 1/50 of the run per call: a progress bar moves, and an interrupt (which Python
+        # handles between calls) ends the run promptly.
+        chunk = min(2 ** math.ceil(math.log2(max(1, n_records / 50))), MAX_CHUNK)
     n_chunks = math.ceil(n_records / chunk)
     run_chunk = _run_chunk
     final = _final_sample

@@ -231,41 +231,29 @@ def build_parser():
     return p
 
 
-class _Terminated(BaseException):
-    """SIGTERM, raised where Python next runs (like KeyboardInterrupt for SIGINT), so that the
-    same clean-up runs: a half-written run folder is removed."""
-
-
-def _on_sigterm(signum, frame):
-    raise _Terminated()
-
-
 def main(argv=None):
     """Entry point of the ``coopsat`` command; returns the exit status.
 
-    Bad input: one line, status 2. SIGINT (Ctrl-C) and SIGTERM end a run promptly (between two
-    compiled chunks of the loop) with one line and status 130 or 143, leaving nothing behind.
+    Bad input: one line, status 2. SIGINT (Ctrl-C) and SIGTERM end a run at its next safe point
+    (after compiling, after a compiled chunk of the loop, between stages) with one line and
+    status 130 or 143, leaving nothing behind (:mod:`coopsat._interrupt`).
     """
+    from coopsat import _interrupt
+
     args = build_parser().parse_args(argv)
     in_main_thread = threading.current_thread() is threading.main_thread()
-    if in_main_thread:
-        # Also when started in the background by a shell, which leaves SIGINT ignored.
-        previous = (signal.signal(signal.SIGINT, signal.default_int_handler), signal.signal(signal.SIGTERM, _on_sigterm))
+    previous = _interrupt.install() if in_main_thread else {}
     try:
         return args.func(args)
     except _input_errors() as err:
         print(f"coopsat: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("coopsat: interrupted (SIGINT); nothing written", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except _Terminated:
-        print("coopsat: terminated (SIGTERM); nothing written", file=sys.stderr)
-        return EXIT_TERMINATED
+    except (KeyboardInterrupt, _interrupt.Interrupted) as stop:
+        term = isinstance(stop, _interrupt.Interrupted) and stop.signum == signal.SIGTERM
+        print(f"coopsat: {'terminated (SIGTERM)' if term else 'interrupted (SIGINT)'}; nothing written", file=sys.stderr)
+        return EXIT_TERMINATED if term else EXIT_INTERRUPTED
     finally:
-        if in_main_thread:
-            signal.signal(signal.SIGINT, previous[0])
-            signal.signal(signal.SIGTERM, previous[1])
+        _interrupt.restore(previous)
 
 
 if __name__ == "__main__":

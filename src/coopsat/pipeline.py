@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 import coopsat
+from coopsat import _interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import run_metrics
 from coopsat.analysis.papers import explainers, paper_metrics
@@ -248,7 +249,9 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
     for note in built.warnings:
         if on_warning is not None:
             on_warning(note)
+    _interrupt.check()
     ds, out = simulate_built(built, progress=progress)
     metrics, rows = analyse(built, ds)
+    _interrupt.check()
     write_run_folder(target, built, ds, metrics, rows, figures=figures)
     return RunResult(target, ds, metrics, rows, built.warnings, out.compile_s, out.run_s)

@@ -114,3 +114,31 @@ def test_a_signal_ends_a_run_with_one_line_and_nothing_written(tmp_path, sig, st
     assert proc.returncode == status, err
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
     assert not out.exists() and not (tmp_path / "runs").exists() or not any((tmp_path / "runs").iterdir())
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        ("t_final_s = 1.0", "t_final_s = 1e308", "sim.t_final_s: Input should be less than or equal to"),
+        ("dt_s = 0.01", "dt_s = 5e-324", "sim.dt_s: Input should be greater than or equal to"),
+        ("alpha = 1.0", "alpha = 1e308", "controller.alpha: Input should be less than or equal to"),
+        ("inertia_kgm2 = [1.0, 0.9, 1.1]", "inertia_kgm2 = [1e308, 1e308, 1e308]", "spacecraft[0].inertia_kgm2: entries must be finite and at most"),
+        ("inertia_kgm2 = [1.0, 0.9, 1.1]", "inertia_kgm2 = [1e-12, 1e-12, 1e-12]", "spacecraft[0].inertia_kgm2: smallest principal moment"),
+        ("beta = 2.0", "beta = 2.0\n[actuators]\nkind = \"ideal-torque\"\ntorque_max_nm = 1e308", "actuators.torque_max_nm: Input should be less than or equal to"),
+    ],
+)
+def test_extreme_values_are_refused_with_the_field(tmp_path, capsys, old, new, expected):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD.replace(old, new, 1), encoding="utf-8")
+    assert expected in _run(tmp_path, capsys, path)
+
+
+def test_the_largest_valid_values_still_validate(tmp_path, capsys):
+    # Gains and inertias at the edges of their ranges: the design checks must not crash.
+    text = GOOD.replace("alpha = 1.0", "alpha = 1e6").replace("beta = 2.0", "beta = 1e6").replace(
+        "inertia_kgm2 = [1.0, 0.9, 1.1]", "inertia_kgm2 = [1e-9, 1e-9, 1e-9]"
+    )
+    path = tmp_path / "s.toml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["validate", str(path)]) == 0
+    assert "Traceback" not in capsys.readouterr().err

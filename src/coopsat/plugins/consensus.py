@@ -13,7 +13,7 @@ import numpy as np
 from pydantic import Field
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
-from coopsat.plugins.tables import Quat, Table, Vec3
+from coopsat.plugins.tables import MAX_GAIN, MAX_RATE_RAD_S, Bounded3, Quat, Table
 
 MAX_CHECKED_SPACECRAFT = 60
 """Largest formation whose sampled-data loop is checked before a run (dense 6n-state model)."""
@@ -25,9 +25,9 @@ class ConsensusSync(Table):
     """``kind = "consensus-sync"``: law (3) of the 2010 consensus paper."""
 
     kind: Literal["consensus-sync"]
-    period_s: float = Field(gt=0, description="Control period (zero-order hold; PWM period), s.")
-    alpha: float = Field(gt=0, description="Attitude consensus gain α, N·m.")
-    beta: float = Field(gt=0, description="Rate consensus gain β, N·m·s/rad.")
+    period_s: float = Field(gt=0, le=1e5, description="Control period (zero-order hold; PWM period), s.")
+    alpha: float = Field(gt=0, le=MAX_GAIN, description="Attitude consensus gain α, N·m.")
+    beta: float = Field(gt=0, le=MAX_GAIN, description="Rate consensus gain β, N·m·s/rad.")
     short_way: bool = Field(False, description="Error quaternions on the q0 >= 0 hemisphere (paper: false).")
 
 
@@ -35,9 +35,9 @@ class ConsensusTrack(ConsensusSync):
     """``kind = "consensus-track"``: law (4), law (3) plus tracking of a reference."""
 
     kind: Literal["consensus-track"]
-    k_p: float = Field(gt=0, description="Reference attitude gain K, N·m.")
-    k_d: float = Field(gt=0, description="Reference rate gain D, N·m·s/rad.")
-    omega_ref_rad_s: Vec3 = Field(description="Constant reference body rate ω_r, rad/s.")
+    k_p: float = Field(gt=0, le=MAX_GAIN, description="Reference attitude gain K, N·m.")
+    k_d: float = Field(gt=0, le=MAX_GAIN, description="Reference rate gain D, N·m·s/rad.")
+    omega_ref_rad_s: Bounded3(MAX_RATE_RAD_S, "rad/s") = Field(description="Constant reference body rate ω_r, rad/s.")
     q_ref0: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Reference attitude at t = 0, scalar first.")
 
 

@@ -5,12 +5,12 @@ papers' aerodynamic, solar-pressure and residual-dipole terms (SPEC §4, §5) pl
 them.
 """
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import Field
 
 from coopsat.plugins import DesignError, Plugin, register
-from coopsat.plugins.tables import Table, Vec3
+from coopsat.plugins.tables import MAX_TORQUE_NM, Bounded3, Table
 
 
 class GravityGradientTable(Table):
@@ -23,7 +23,7 @@ class RandomTorqueTable(Table):
     """``kind = "random-torque"``: zero-mean normal torque, drawn anew every control period."""
 
     kind: Literal["random-torque"]
-    sigma_nm: float | Vec3 = Field(description="Standard deviation per body axis, N·m (one value or [x, y, z]).")
+    sigma_nm: Annotated[float, Field(ge=0, le=MAX_TORQUE_NM)] | Bounded3(MAX_TORQUE_NM, "N·m") = Field(description="Standard deviation per body axis, N·m (one value or [x, y, z]).")
 
 
 def _build_gravity_gradient(table, ctx):

@@ -10,7 +10,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
-from coopsat.plugins.tables import Table
+from coopsat.plugins.tables import MAX_FORCE_N, Table
 
 _CHANNEL_COMMAND = {"lvlh": "force_lvlh", "body": "force_b"}
 
@@ -19,8 +19,8 @@ class ImpulseBitThrusters(Table):
     """``kind = "impulse-bit-thrusters"``: whole impulse bits per axis, remainder carried."""
 
     kind: Literal["impulse-bit-thrusters"]
-    bit_ns: float = Field(1e-5, gt=0, description="Impulse of one bit, N·s.")
-    thrust_n: float = Field(gt=0, description="Force of one firing thruster, N (a bit lasts bit_ns/thrust_n).")
+    bit_ns: float = Field(1e-5, gt=0, le=1e6, description="Impulse of one bit, N·s.")
+    thrust_n: float = Field(gt=0, le=MAX_FORCE_N, description="Force of one firing thruster, N (a bit lasts bit_ns/thrust_n).")
     max_bits_per_period: int | None = Field(
         None, ge=1, description="Most bits per axis and period (default: as many as fit, ⌊T·thrust/bit⌋)."
     )
@@ -32,8 +32,8 @@ class ProportionalThrusters(Table):
     """``kind = "proportional-thrusters"``: the commanded force per axis, with a dead zone."""
 
     kind: Literal["proportional-thrusters"]
-    force_min_n: float = Field(1e-3, ge=0, description="Smallest force per axis, N: smaller commands give none.")
-    force_max_n: float = Field(0.1, gt=0, description="Largest force per axis, N: larger commands are clipped.")
+    force_min_n: float = Field(1e-3, ge=0, le=MAX_FORCE_N, description="Smallest force per axis, N: smaller commands give none.")
+    force_max_n: float = Field(0.1, gt=0, le=MAX_FORCE_N, description="Largest force per axis, N: larger commands are clipped.")
     frame: Literal["lvlh", "body"] = Field("lvlh", description="Thruster axes: the chief's LVLH frame, or the body.")
     command: str | None = Field(None, description="Controller command executed (default force_lvlh / force_b by frame).")
 

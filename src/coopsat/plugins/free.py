@@ -12,7 +12,7 @@ class NoController(Table):
     """``kind = "none"``: torque-free (no control)."""
 
     kind: Literal["none"]
-    period_s: float | None = Field(None, gt=0, description="Default: sim.dt_s.")
+    period_s: float | None = Field(None, gt=0, le=1e5, description="Default: sim.dt_s.")
 
 
 def _build(table, ctx):

@@ -28,7 +28,7 @@ class LeaderFollowerTable(Table):
     """``kind = "leader-follower"``: followers track a free-flying leader over a delayed network."""
 
     kind: Literal["leader-follower"]
-    period_s: float = Field(gt=0, description="Control period (zero-order hold), s.")
+    period_s: float = Field(gt=0, le=1e5, description="Control period (zero-order hold), s.")
     protocol: Literal["law3", "classical"] = Field(
         "law3",
         description="law3: own state current, what is heard delayed (paper eq. 3); classical: the whole "

@@ -6,7 +6,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from coopsat.plugins import DesignError, Plugin, register
-from coopsat.plugins.tables import Record, Table
+from coopsat.plugins.tables import MAX_GAIN, MAX_TIME_S, Record, Table
 
 
 class IdealDelivery(Table):
@@ -30,10 +30,10 @@ register(Plugin("network", "ideal", IdealDelivery, _build_ideal))
 class RandomDelay(Table):
     """``random_delay``: the random single-hop delay τ(t) of SPEC §3, piecewise constant."""
 
-    min_s: float = Field(0.0, ge=0, description="Smallest τ, s (whole control periods).")
-    max_s: float = Field(ge=0, description="Largest τ (its bound), s (whole control periods).")
-    hold_min_s: float = Field(gt=0, description="Shortest time between two draws of τ, s (whole control periods).")
-    hold_max_s: float = Field(gt=0, description="Longest time between two draws of τ, s (whole control periods).")
+    min_s: float = Field(0.0, ge=0, le=1e6, description="Smallest τ, s (whole control periods).")
+    max_s: float = Field(ge=0, le=1e6, description="Largest τ (its bound), s (whole control periods).")
+    hold_min_s: float = Field(gt=0, le=MAX_TIME_S, description="Shortest time between two draws of τ, s (whole control periods).")
+    hold_max_s: float = Field(gt=0, le=MAX_TIME_S, description="Longest time between two draws of τ, s (whole control periods).")
 
     @model_validator(mode="after")
     def _ordered(self):
@@ -48,7 +48,7 @@ class DelayedDelivery(Table):
     """``kind = "delayed"``: per-link delays, multi-hop relaying, a random τ(t), drop-outs."""
 
     kind: Literal["delayed"]
-    delay_s: float = Field(0.0, ge=0, description="Fixed delay of every hop, s (whole control periods).")
+    delay_s: float = Field(0.0, ge=0, le=1e6, description="Fixed delay of every hop, s (whole control periods).")
     link_delays: list[Record(str, str, float)] = Field(
         [], description="[transmitter, receiver, delay_s] per direction of a link: overrides delay_s there."
     )
@@ -57,7 +57,7 @@ class DelayedDelivery(Table):
         description="Every spacecraft hears every one it can reach, over the shortest directed path "
         "(delays summed per hop); false: direct neighbours only.",
     )
-    relay_weight: float = Field(1.0, gt=0, description="Weight of a pair heard over more than one hop.")
+    relay_weight: float = Field(1.0, gt=0, le=MAX_GAIN, description="Weight of a pair heard over more than one hop.")
     random_delay: RandomDelay | None = Field(None, description="Random single-hop delay τ(t) added per hop.")
     dropout_probability: float = Field(0.0, ge=0, lt=1, description="Probability that one hop loses a message.")
     on_loss: Literal["hold", "drop"] = Field(

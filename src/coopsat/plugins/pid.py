@@ -15,17 +15,17 @@ import numpy as np
 from pydantic import Field
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
-from coopsat.plugins.tables import Quat, Table, Vec3
+from coopsat.plugins.tables import MAX_GAIN, Quat, Table, Vec3
 
 
 class AttitudePid(Table):
     """``kind = "attitude-pid"``: hold a constant attitude with a PID on the error quaternion."""
 
     kind: Literal["attitude-pid"]
-    period_s: float = Field(gt=0, description="Control period (zero-order hold), s.")
-    k_p: float = Field(ge=0, description="Proportional gain K_p, N·m (per unit of quaternion vector part).")
-    k_d: float = Field(ge=0, description="Rate gain K_d, N·m·s/rad.")
-    k_i: float = Field(0.0, ge=0, description="Integral gain K_i, N·m/s.")
+    period_s: float = Field(gt=0, le=1e5, description="Control period (zero-order hold), s.")
+    k_p: float = Field(ge=0, le=MAX_GAIN, description="Proportional gain K_p, N·m (per unit of quaternion vector part).")
+    k_d: float = Field(ge=0, le=MAX_GAIN, description="Rate gain K_d, N·m·s/rad.")
+    k_i: float = Field(0.0, ge=0, le=MAX_GAIN, description="Integral gain K_i, N·m/s.")
     q_target: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Target attitude, body relative to inertial, scalar first.")
     integral_max: float | None = Field(
         None, gt=0, description="Anti-windup: clamp on each component of ∫ vec(q_t*⊗q) dt, s (default none)."
@@ -36,9 +36,9 @@ class LvlhPd(Table):
     """``kind = "lvlh-pd"``: every deputy holds an offset from the chief in the chief's LVLH frame."""
 
     kind: Literal["lvlh-pd"]
-    period_s: float = Field(gt=0, description="Control period (zero-order hold), s.")
-    k_p: float = Field(gt=0, description="Position gain, N/m.")
-    k_d: float = Field(ge=0, description="Velocity gain, N·s/m.")
+    period_s: float = Field(gt=0, le=1e5, description="Control period (zero-order hold), s.")
+    k_p: float = Field(gt=0, le=MAX_GAIN, description="Position gain, N/m.")
+    k_d: float = Field(ge=0, le=MAX_GAIN, description="Velocity gain, N·s/m.")
     rho_target_lvlh_m: Vec3 | list[Vec3] = Field(
         description="Offset from the chief to hold, LVLH, m: one [x, y, z] for every deputy, or one per spacecraft."
     )

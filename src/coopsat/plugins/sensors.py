@@ -35,7 +35,7 @@ PerAxis = Annotated[float | list[float], PlainValidator(_per_axis_sigma)]
 """A standard deviation: one number for every axis, or ``[x, y, z]``; finite, ≥ 0."""
 
 _PERIOD = Field(
-    None, gt=0, description="Update interval, s: a whole multiple of the control period (default: the control period)."
+    None, gt=0, le=1e9, description="Update interval, s: a whole multiple of the control period (default: the control period)."
 )
 
 

@@ -58,6 +58,36 @@ def check_finite(v):
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3), AfterValidator(check_finite)]
 """Three finite numbers."""
 
+# Physically meaningful ranges (docs/scenarios.md, "Ranges"): beyond them a value is a typo or
+# an overflow waiting to happen, never a spacecraft.
+MAX_TIME_S = 1e9
+"""Longest time anywhere in a scenario, s (about 32 years)."""
+MAX_GAIN = 1e6
+"""Largest control gain or link weight (in its own SI unit)."""
+MAX_TORQUE_NM = 1e6
+MAX_FORCE_N = 1e6
+MAX_RATE_RAD_S = 1e3
+MAX_DISTANCE_M = 1e13
+"""Largest position or semi-major axis, m (beyond Pluto's orbit)."""
+MAX_SPEED_M_S = 1e6
+
+
+def bounded_norm(limit, unit):
+    """Pydantic validator: the vector's Euclidean norm is at most ``limit``."""
+
+    def check(v):
+        norm = float(np.linalg.norm(v))
+        if norm > limit:
+            raise ValueError(f"norm {norm:.3g} {unit} is above {limit:g} {unit}: not a physical value")
+        return v
+
+    return AfterValidator(check)
+
+
+def Bounded3(limit, unit):  # noqa: N802 (a type constructor)
+    """Three finite numbers whose norm is at most ``limit`` (in ``unit``)."""
+    return Annotated[Vec3, bounded_norm(limit, unit)]
+
 Quat = Annotated[list[float], Field(min_length=4, max_length=4), AfterValidator(_check_quaternion)]
 """A scalar-first quaternion, unit to within :data:`QUAT_NORM_TOL`."""
 
@@ -65,5 +95,7 @@ Quat = Annotated[list[float], Field(min_length=4, max_length=4), AfterValidator(
 def whole_ratio(a, b):
     """``a / b`` as an int when it is a whole number (to 1e-9 relative), else None."""
     r = a / b
+    if not np.isfinite(r):
+        return None
     k = round(r)
     return k if k >= 1 and abs(r - k) <= 1e-9 * max(1.0, r) else None

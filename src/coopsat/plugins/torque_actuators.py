@@ -5,22 +5,22 @@ from typing import Literal
 from pydantic import Field
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
-from coopsat.plugins.tables import Table
+from coopsat.plugins.tables import MAX_TORQUE_NM, Table
 
 
 class IdealTorque(Table):
     """``kind = "ideal-torque"``: the commanded torque, saturated per axis."""
 
     kind: Literal["ideal-torque"]
-    torque_max_nm: float = Field(float("inf"), gt=0, description="Saturation per body axis, N·m (default none).")
+    torque_max_nm: float = Field(float("inf"), gt=0, le=MAX_TORQUE_NM, description="Saturation per body axis, N·m (default none).")
 
 
 class PwmThrusters(Table):
     """``kind = "pwm-thrusters"``: a ± thruster pair per body axis, eq. (10) of the 2010 paper."""
 
     kind: Literal["pwm-thrusters"]
-    torque_max_nm: float = Field(gt=0, description="Torque of one thruster pair T_max, N·m.")
-    min_pulse_s: float = Field(ge=0, description="Minimum pulse width τ, s (< control period).")
+    torque_max_nm: float = Field(gt=0, le=MAX_TORQUE_NM, description="Torque of one thruster pair T_max, N·m.")
+    min_pulse_s: float = Field(ge=0, le=1e5, description="Minimum pulse width τ, s (< control period).")
 
 
 def _build_ideal(table, ctx):

@@ -14,7 +14,7 @@ from pydantic import Field
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
 from coopsat.plugins.tables import QUAT_NORM_TOL, Table, Vec3
 
-Positive = Annotated[float, Field(gt=0)]
+Positive = Annotated[float, Field(gt=0, le=1e9)]
 PerWheel = Positive | list[Positive]
 """One value for every wheel, or one per wheel (in the order of ``spin_axes_b``)."""
 

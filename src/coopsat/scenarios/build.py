@@ -152,8 +152,18 @@ def _scenario_tables(scenario):
     ]
 
 
-def _checks(results):
-    """Normalise a check's return value (None, one DesignCheck, or a list) to a list."""
+def _run_check(check, table, ctx, place):
+    """A plug-in's design-time check as a list of results (it may return None, one or several).
+
+    A check whose numerics fail on extreme (but valid) input — an overflow, a singular or
+    non-finite matrix — becomes a failed check that says so, not a crash: the run is then
+    not known to do what its design promises.
+    """
+    try:
+        results = check(table, ctx)
+    except (ArithmeticError, np.linalg.LinAlgError, FloatingPointError) as err:
+        name = check.__name__.removeprefix("check_").replace("_", "-")
+        return [DesignCheck(name, False, f"{place}: the {name} check could not be computed ({err})")]
     if results is None:
         return []
     return [results] if isinstance(results, DesignCheck) else list(results)
@@ -221,7 +231,7 @@ def build(scenario):
         try:
             parts[role].append(plugin.build(table, ctx))
             for check in plugin.checks:
-                for result in _checks(check(table, ctx)):
+                for result in _run_check(check, table, ctx, place):
                     checks[result.name] = result
         except DesignError as err:
             raise ScenarioError(str(err)) from None

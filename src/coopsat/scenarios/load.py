@@ -226,13 +226,19 @@ def format_validation_error(err, prefix=""):
     from coopsat.plugins import all_kinds
 
     tags = all_kinds()  # pydantic puts the kind of a tagged union in the error's location
+    errors = err.errors()
+    # A field that takes a table or an array of tables ([actuators] or [[actuators]]) fails
+    # once per form: keep the failures of the form that was given, not "should be a list".
+    wrong_form = {"list_type", "model_type", "dict_type", "model_attributes_type"}
+    if any(e["type"] not in wrong_form for e in errors):
+        errors = [e for e in errors if e["type"] not in wrong_form]
     msgs = []
-    for e in err.errors():
+    for e in errors:
         parts = [prefix] if prefix else []
         for p in e["loc"]:
             if isinstance(p, int):
                 parts[-1:] = [f"{parts[-1]}[{p}]"] if parts else [f"[{p}]"]
-            elif p not in tags:
+            elif p not in tags and "[" not in p:  # "tagged-union[…]", "list[…]": pydantic's own labels
                 parts.append(clip_echo(p))
         where = ".".join(parts) or "scenario"
         text = clip_echo(e["msg"].removeprefix("Value error, "), 4 * ECHO_MAX)

@@ -16,7 +16,19 @@ from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from coopsat.astro.constants import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
 from coopsat.plugins import plugins
-from coopsat.plugins.tables import Quat, Record, Table, Vec3, check_finite, whole_ratio
+from coopsat.plugins.tables import (
+    MAX_DISTANCE_M,
+    MAX_GAIN,
+    MAX_RATE_RAD_S,
+    MAX_SPEED_M_S,
+    MAX_TIME_S,
+    Bounded3,
+    Quat,
+    Record,
+    Table,
+    Vec3,
+    whole_ratio,
+)
 
 MAX_TICKS = 1e10
 """Longest run in base ticks (about 10 hours of compute at the engine's speed for N = 5)."""
@@ -33,6 +45,12 @@ NAME_PATTERN = r"^[A-Za-z0-9_.\-]{1,64}$"
 """Scenario and spacecraft names: they become file, folder and metric names."""
 
 
+MAX_INERTIA_KGM2 = 1e9
+MIN_INERTIA_KGM2 = 1e-9
+"""Range of a principal moment of inertia, kg·m² (a 1 g, 1 mm body is about 1e-10... a space
+station about 1e8)."""
+
+
 def _check_inertia(inertia):
     """A physical inertia: [Ixx, Iyy, Izz] or symmetric 3×3, positive definite, triangle inequality."""
     try:
@@ -41,11 +59,15 @@ def _check_inertia(inertia):
         raise ValueError("must be [Ixx, Iyy, Izz] or a 3×3 matrix, kg·m²") from None
     if m.shape != (3, 3):
         raise ValueError("must be [Ixx, Iyy, Izz] or a 3×3 matrix, kg·m²")
+    if not np.all(np.isfinite(m)) or np.abs(m).max() > MAX_INERTIA_KGM2:
+        raise ValueError(f"entries must be finite and at most {MAX_INERTIA_KGM2:g} kg·m² (the ISS is about 1e8)")
     if not np.allclose(m, m.T, rtol=1e-12, atol=0.0):
         raise ValueError("must be symmetric, kg·m²")
     eig = np.linalg.eigvalsh(m)
     if eig[0] <= 0.0:
         raise ValueError(f"must be positive definite (principal moments {eig.round(6).tolist()} kg·m²)")
+    if eig[0] < MIN_INERTIA_KGM2:
+        raise ValueError(f"smallest principal moment {eig[0]:.3g} kg·m² is below {MIN_INERTIA_KGM2:g} kg·m²")
     if eig[0] + eig[1] < eig[2] * (1.0 - 1e-9):
         raise ValueError(
             f"principal moments {eig.round(6).tolist()} kg·m² break the triangle inequality "
@@ -81,8 +103,8 @@ Disturbance = _union("disturbance")
 class Sim(Table):
     """``[sim]``: time base of the run."""
 
-    t_final_s: float = Field(gt=0, description="Run length, s.")
-    dt_s: float = Field(gt=0, description="Base tick, s: integration step and time quantum.")
+    t_final_s: float = Field(gt=0, le=MAX_TIME_S, description="Run length, s.")
+    dt_s: float = Field(ge=1e-9, le=1e5, description="Base tick, s: integration step and time quantum.")
     substeps: int = Field(1, ge=1, le=64, description="RK4 steps per tick (per switch-free segment).")
     attitude: Literal["rigid-body", "small-angle"] = Field(
         "rigid-body",
@@ -90,14 +112,14 @@ class Sim(Table):
         "about rest (θ̇ = ω, I ω̇ = τ per axis; SPEC §3).",
     )
     record_interval_s: float | None = Field(
-        None, gt=0, description="Time between recorded samples, s; default one control period."
+        None, gt=0, le=MAX_TIME_S, description="Time between recorded samples, s; default one control period."
     )
 
 
 class Elements(Table):
     """Classical orbital elements of one spacecraft (``[spacecraft.elements]``)."""
 
-    a_m: float = Field(gt=0)
+    a_m: float = Field(gt=0, le=MAX_DISTANCE_M)
     e: float = Field(0.0, ge=0, lt=1)
     i_deg: float = 0.0
     raan_deg: float = 0.0
@@ -112,7 +134,7 @@ class SpacecraftDefaults(Table):
     q_bi: Quat | None = None
     omega_b_rad_s: Vec3 | None = None
     h_wheels_b_nms: Vec3 | None = None
-    mass_kg: float | None = Field(None, gt=0)
+    mass_kg: float | None = Field(None, gt=0, le=1e7)
     angle_rad: Vec3 | None = None
 
 
@@ -126,18 +148,13 @@ class Spacecraft(Table):
         description="Diagonal [Ixx, Iyy, Izz] or full 3×3 inertia about the centre of mass, body frame, kg·m²."
     )
     q_bi: Quat = Field([1.0, 0.0, 0.0, 0.0], description="Initial attitude, body relative to inertial, scalar first.")
-    omega_b_rad_s: Vec3 = Field([0.0, 0.0, 0.0], description="Initial body rate, body frame, rad/s.")
-    angle_rad: Vec3 = Field([0.0, 0.0, 0.0], description="Initial small attitude angles (small-angle model), rad.")
-    h_wheels_b_nms: Vec3 = Field([0.0, 0.0, 0.0], description="Wheel angular momentum, body frame, N·m·s.")
-    mass_kg: float | None = Field(None, gt=0, description="Mass, kg (needed when a force acts).")
-    r_eci_m: Vec3 | None = None
-    v_eci_m_s: Vec3 | None = None
+    omega_b_rad_s: Bounded3(MAX_RATE_RAD_S, "rad/s") = Field([0.0, 0.0, 0.0], description="Initial body rate, body frame, rad/s.")
+    angle_rad: Bounded3(1e3, "rad") = Field([0.0, 0.0, 0.0], description="Initial small attitude angles (small-angle model), rad.")
+    h_wheels_b_nms: Bounded3(1e6, "N·m·s") = Field([0.0, 0.0, 0.0], description="Wheel angular momentum, body frame, N·m·s.")
+    mass_kg: float | None = Field(None, gt=0, le=1e7, description="Mass, kg (needed when a force acts).")
+    r_eci_m: Bounded3(MAX_DISTANCE_M, "m") | None = None
+    v_eci_m_s: Bounded3(MAX_SPEED_M_S, "m/s") | None = None
     elements: Elements | None = None
-
-    @field_validator("omega_b_rad_s", "h_wheels_b_nms", "r_eci_m", "v_eci_m_s")
-    @classmethod
-    def _finite(cls, v):
-        return v if v is None else check_finite(v)
 
     @model_validator(mode="after")
     def _one_translational_source(self):
@@ -152,9 +169,9 @@ class Orbit(Table):
     """``[orbit]``: translational truth model (omit for attitude-only runs)."""
 
     gravity: Literal["two-body", "j2"] = "two-body"
-    mu_m3_s2: float = Field(MU_EARTH_M3_S2, gt=0, description="Central body's gravitational parameter, m³/s².")
-    j2: float = Field(J2_EARTH, description="Central body's J2.")
-    r_body_m: float = Field(R_EARTH_M, gt=0, description="Central body's equatorial radius, m.")
+    mu_m3_s2: float = Field(MU_EARTH_M3_S2, gt=0, le=1e21, description="Central body's gravitational parameter, m³/s².")
+    j2: float = Field(J2_EARTH, ge=-1.0, le=1.0, description="Central body's J2.")
+    r_body_m: float = Field(R_EARTH_M, gt=0, le=1e9, description="Central body's equatorial radius, m.")
 
 
 class Graph(Table):
@@ -162,7 +179,7 @@ class Graph(Table):
 
     kind: Literal["none", "ring", "chain", "star", "complete", "edges", "adjacency"] = "none"
     directed: bool = Field(False, description="Named graphs and edge lists: one-way links (i hears j only).")
-    weight: float = Field(1.0, gt=0, description="Weight of every link of a named graph.")
+    weight: float = Field(1.0, gt=0, le=MAX_GAIN, description="Weight of every link of a named graph.")
     hub: str | None = Field(None, description="Star: the hub spacecraft (default the first).")
     edges: list[Record(str, str, float)] | None = Field(
         None, description="kind = 'edges': [transmitter, receiver, weight] by spacecraft name."
@@ -200,7 +217,7 @@ class Graph(Table):
 class GraphSwitch(Graph):
     """One ``[[network.switches]]`` entry: from ``t_s`` on, this graph replaces the previous one."""
 
-    t_s: float = Field(gt=0, description="Switch time, s: a whole multiple of the control period.")
+    t_s: float = Field(gt=0, le=MAX_TIME_S, description="Switch time, s: a whole multiple of the control period.")
 
 
 class Network(Graph):
@@ -230,10 +247,10 @@ class Network(Graph):
 class Analysis(Table):
     """``[analysis]``: thresholds of the metrics."""
 
-    sync_attitude_deg: float = Field(1.0, gt=0, description="Pairwise attitude error that counts as synchronised, deg.")
-    sync_rate_rad_s: float = Field(0.01, gt=0, description="Pairwise rate difference that counts as synchronised, rad/s.")
+    sync_attitude_deg: float = Field(1.0, gt=0, le=180, description="Pairwise attitude error that counts as synchronised, deg.")
+    sync_rate_rad_s: float = Field(0.01, gt=0, le=MAX_RATE_RAD_S, description="Pairwise rate difference that counts as synchronised, rad/s.")
     settle_hold_s: float = Field(
-        10.0, ge=0, description="A settle time counts only if the condition has held this long by the end of the run, s."
+        10.0, ge=0, le=MAX_TIME_S, description="A settle time counts only if the condition has held this long by the end of the run, s."
     )
 
 

@@ -28,7 +28,7 @@ import time
 from dataclasses import dataclass
 from functools import partial
 
-from coopsat import _jax  # noqa: F401
+from coopsat import _interrupt, _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp
@@ -488,6 +488,7 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     while len(_COMPILED) > _COMPILED_MAX:
         _COMPILED.pop(next(iter(_COMPILED)))
     compile_s = time.perf_counter() - t0
+    _interrupt.check()
 
     bar = None
     if progress:
@@ -502,6 +503,7 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
             out = jax.tree_util.tree_map(np.asarray, out)
             _check_finite(out, t_s, c * chunk, batched, names)
             chunks.append(out)
+            _interrupt.check()
             if bar is not None:
                 bar.update(min(chunk, n_records - c * chunk))
         last = jax.tree_util.tree_map(np.asarray, final(system, carry))

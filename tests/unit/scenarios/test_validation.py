@@ -158,7 +158,7 @@ def test_negative_gain_or_period(tmp_path, field):
 def test_negative_time_step(tmp_path):
     msg = load_error(scenario_file(tmp_path, {"sim.dt_s": -0.01}))
     assert msg.startswith("sim.dt_s:")
-    assert "greater than 0" in msg
+    assert "greater than or equal to 0.000000001" in msg  # the smallest tick is 1e-9 s (docs: Ranges)
 
 
 # ------------------------------------------------------------------------------------ inertia

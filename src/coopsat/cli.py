@@ -75,6 +75,7 @@ def _cmd_run(args):
         progress=not args.quiet,
         figures=not args.no_figures,
         on_warning=lambda note: print(f"warning: {note}", file=sys.stderr),
+        allow_long=args.allow_long,
     )
     print(f"wrote {result.out_dir}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
     if not args.quiet:
@@ -204,6 +205,7 @@ def build_parser():
     run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
     run.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     run.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no metrics on stdout")
+    run.add_argument("--allow-long", action="store_true", help="run even when the estimated wall time is above 30 min")
     run.set_defaults(func=_cmd_run)
 
     margin = sub.add_parser("margin", help="exact constant-delay margin of a scenario's delayed consensus law")

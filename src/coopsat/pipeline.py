@@ -119,15 +119,17 @@ def analyse(built, ds, compare=True):
 
 
 def _json_ready(obj):
-    """Plain JSON: NumPy scalars to Python, non-finite numbers to null (strict JSON has neither)."""
+    """Plain JSON: NumPy scalars to Python, non-finite numbers to null (strict JSON has neither),
+    floats to 15 significant digits (so that 0.05·0.001/0.01 prints as 0.005, not
+    0.005000000000000001; float64 carries 15–17, the last ones rounding noise)."""
     if isinstance(obj, dict):
         return {k: _json_ready(v) for k, v in obj.items()}
     if isinstance(obj, list):
         return [_json_ready(v) for v in obj]
     if isinstance(obj, np.generic):
         obj = obj.item()
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None
+    if isinstance(obj, float):
+        return float(f"{obj:.15g}") if np.isfinite(obj) else None
     return obj
 
 
@@ -220,7 +222,46 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
     return out_dir
 
 
-def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, on_warning=None):
+ENGINE_RATE_SC_STEPS_S = 2e6
+"""Spacecraft-steps per second assumed when estimating a run's wall time: the consensus loop's
+lower figure on the 2-core CPU machine of `coopsat bench` (README, Speed); pulsed actuators
+split ticks and count double."""
+
+LONG_RUN_S = 1800.0
+"""Estimated wall time above which a run needs ``allow_long`` (``--allow-long``), s."""
+
+
+class RunTooLongError(ScenarioError):
+    """A run whose estimated wall time is above :data:`LONG_RUN_S` and was not allowed."""
+
+
+def estimated_run_s(built):
+    """Rough wall time of the closed loop, s, from the run's size and the engine's speed."""
+    s = built.scenario
+    steps = s.sim.t_final_s / s.sim.dt_s * len(built.names) * s.sim.substeps
+    pulsed = any(getattr(a, "pulsed", False) for a in built.system.actuators)
+    return steps * (2.0 if pulsed else 1.0) / ENGINE_RATE_SC_STEPS_S
+
+
+def check_run_length(built, allow_long=False):
+    """Refuse, before anything runs, a run estimated to take longer than :data:`LONG_RUN_S`.
+
+    Raises
+    ------
+    RunTooLongError
+    """
+    estimate = estimated_run_s(built)
+    if estimate > LONG_RUN_S and not allow_long:
+        s = built.scenario
+        raise RunTooLongError(
+            f"sim: {s.sim.t_final_s / s.sim.dt_s:.3g} ticks of {len(built.names)} spacecraft would take about "
+            f"{estimate / 3600:.2g} h at ~{ENGINE_RATE_SC_STEPS_S / 1e6:g} M spacecraft-steps/s; shorten the run or "
+            "take a larger step, or pass --allow-long to run it anyway"
+        )
+    return estimate
+
+
+def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, on_warning=None, allow_long=False):
     """Run a bundled scenario or scenario file and write its run folder.
 
     Parameters
@@ -237,6 +278,8 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
         Write the PNG figures.
     on_warning : callable, optional
         Called with each design-time warning (one line) before the simulation starts.
+    allow_long : bool
+        Run even when the estimated wall time is above :data:`LONG_RUN_S`.
 
     Returns
     -------
@@ -246,6 +289,7 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
     target = Path(out_dir) if out_dir is not None else Path("runs") / scenario.name
     check_run_folder(target)
     built = prepare(scenario)
+    check_run_length(built, allow_long)
     for note in built.warnings:
         if on_warning is not None:
             on_warning(note)

@@ -142,3 +142,11 @@ def test_the_largest_valid_values_still_validate(tmp_path, capsys):
     path.write_text(text, encoding="utf-8")
     assert main(["validate", str(path)]) == 0
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_a_run_estimated_too_long_is_refused_before_it_starts(tmp_path, capsys):
+    # 3e9 ticks of 2 spacecraft at 2 M spacecraft-steps/s: 50 min, above the 30 min threshold.
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD.replace("t_final_s = 1.0", "t_final_s = 3e7").replace("dt_s = 0.01", "dt_s = 0.01\nrecord_interval_s = 1e4"), encoding="utf-8")
+    line = _run(tmp_path, capsys, path)
+    assert "would take about 0.83 h" in line and "--allow-long" in line

@@ -5,6 +5,7 @@ unstable and must not synchronise, and the comparison must say so and why; the -
 variants must do what law (3)/(4) is designed for, within what the actuator allows.
 """
 
+import numpy as np
 import pytest
 
 from coopsat.pipeline import analyse, prepare, simulate_built
@@ -13,11 +14,41 @@ from coopsat.scenarios.load import load_scenario
 pytestmark = pytest.mark.slow
 
 
-def _run(name):
+def _run(name, with_dataset=False):
     built = prepare(load_scenario(name))
     ds, _ = simulate_built(built)
     metrics, rows = analyse(built, ds)
-    return built, metrics, {r["quantity"]: r for r in rows}
+    rows = {r["quantity"]: r for r in rows}
+    return (built, metrics, rows, ds) if with_dataset else (built, metrics, rows)
+
+
+def _spin_down_by_hand(ds, omega_ref, threshold=0.1, hold=10.0):
+    """Satellite 2's spin-down time from the recorded rates: walk back from the end to the last
+    sample whose excess rate along the initial spin axis is at or above the threshold."""
+    w = ds.omega.sel(spacecraft="sat2").values  # (T, 3)
+    axis = (w[0] - omega_ref) / np.linalg.norm(w[0] - omega_ref)
+    spin = np.abs((w - omega_ref) @ axis)
+    t = ds.time.values
+    k = len(t) - 1
+    while k >= 0 and spin[k] < threshold:
+        k -= 1
+    if k == len(t) - 1:
+        return None
+    settled = t[k + 1]
+    return settled if t[-1] - settled >= hold else None
+
+
+@pytest.mark.parametrize("name", ["consensus-track", "consensus-track-stable"])
+def test_spin_down_is_the_spin_itself_and_respects_the_thrust_bound(name):
+    _, metrics, rows, ds = _run(name, with_dataset=True)
+    omega_ref = np.array([0.0, 0.1, 0.0])
+    assert metrics["sat2_spin_down_time_s"] == _spin_down_by_hand(ds, omega_ref)
+    # Hand bound for the same definition: spin about y (ê ≈ [0.1, 0.995, 0]); I_ê (|Δω| − 0.1) / (T_max Σ|ê_k|).
+    e = np.array([0.5, 4.9, 0.0]) / np.hypot(0.5, 4.9)
+    bound = (e @ np.diag([1.5, 0.9, 2.0]) @ e) * (np.hypot(0.5, 4.9) - 0.1) / (0.05 * np.abs(e).sum())
+    assert metrics["sat2_min_spin_down_time_s"] == pytest.approx(bound, rel=1e-12)
+    assert metrics["sat2_spin_down_time_s"] >= bound
+    assert "sat2_spin_down_time_s" in rows
 
 
 @pytest.mark.parametrize("name", ["consensus-sync-a", "consensus-sync-b", "consensus-track"])
@@ -62,5 +93,6 @@ def test_stable_tracking_follows_the_reference():
     assert metrics["track_time_s"] is not None
     assert metrics["final_track_error_deg"] < 0.1
     assert metrics["final_track_rate_error_rad_s"] < 1e-3
-    # Satellite 2 cannot shed its spin faster than its thrusters allow.
-    assert metrics["sat2_rate_settle_time_s"] >= metrics["sat2_min_spin_down_time_s"]
+    # Satellite 2's spin goes before its tracking settles; the paper's 120 s is its spin-down.
+    assert metrics["sat2_spin_down_time_s"] < metrics["sat2_rate_settle_time_s"]
+    assert rows["sat2_spin_down_time_s"]["verdict"] == "agrees"

@@ -249,6 +249,10 @@ class Analysis(Table):
 
     sync_attitude_deg: float = Field(1.0, gt=0, le=180, description="Pairwise attitude error that counts as synchronised, deg.")
     sync_rate_rad_s: float = Field(0.01, gt=0, le=MAX_RATE_RAD_S, description="Pairwise rate difference that counts as synchronised, rad/s.")
+    spin_rate_rad_s: float = Field(
+        0.1, gt=0, le=MAX_RATE_RAD_S,
+        description="Spin-down: the excess rate along the initial spin axis counts as removed below this, rad/s.",
+    )
     settle_hold_s: float = Field(
         10.0, ge=0, le=MAX_TIME_S, description="A settle time counts only if the condition has held this long by the end of the run, s."
     )

@@ -36,6 +36,28 @@ def _title(ds, what):
     return f"{scenario}: {what}" if scenario else what
 
 
+def _legend_outside(fig, ax):
+    """The legend of ``ax``'s lines beside the axes, never over the data."""
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside right upper", fontsize="small")
+
+
+WINDOWS = 200
+"""A long record is drawn as this many windows (mean line, min–max band) so that it stays
+readable: a PWM torque recorded every period is otherwise a solid block of switching."""
+
+
+def _windowed(t, values):
+    """(t_start, mean, low, high) over consecutive windows along the first axis; the samples
+    themselves when there are fewer than :data:`WINDOWS`."""
+    n = len(t)
+    size = max(1, n // WINDOWS)
+    if size == 1:
+        return t, values, values, values
+    cut = n - n % size
+    shaped = values[:cut].reshape(cut // size, size, *values.shape[1:])
+    return t[:cut:size], shaped.mean(axis=1), shaped.min(axis=1), shaped.max(axis=1)
+
+
 def _stacked(ds, n_axes, what):
     fig = Figure(figsize=(8.0, 1.8 * n_axes + 0.6), layout="constrained")
     axes = fig.subplots(n_axes, 1, sharex=True, squeeze=False)[:, 0]
@@ -69,7 +91,7 @@ def attitude_figure(ds):
         for i, name in enumerate(_names(ds)):
             ax.plot(t, q[:, i, k], label=name)
         ax.set_ylabel(f"{comp} [{ds['q'].attrs['units']}]")
-    axes[0].legend(loc="upper right", fontsize="small")
+    _legend_outside(fig, axes[0])
     return fig
 
 
@@ -81,7 +103,7 @@ def _per_axis_figure(ds, name, symbol, what):
         for i, sc in enumerate(_names(ds)):
             ax.plot(t, values[:, i, k], label=sc)
         ax.set_ylabel(f"{symbol}_{comp} [{ds[name].attrs['units']}]")
-    axes[0].legend(loc="upper right", fontsize="small")
+    _legend_outside(fig, axes[0])
     return fig
 
 
@@ -132,25 +154,32 @@ def torque_figure(ds, spacecraft=0):
     -------
     matplotlib.figure.Figure
         Three stacked axes (x, y, z). The applied torque is a step plot (it is the mean over
-        the control period *starting* at each sample); the command is a thin dashed line. The
-        view is scaled to the applied torque: a saturated command runs off the axes, as a
-        thruster's demand does beyond its authority.
+        the record interval *starting* at each sample); the command is a thin dashed line. A
+        record longer than :data:`WINDOWS` samples is drawn per window: the mean applied torque
+        and a band from its smallest to its largest sample, and the mean command. The view is
+        scaled to the applied torque: a saturated command runs off the axes, as a thruster's
+        demand does beyond its authority.
     """
     names = _names(ds)
     i = names.index(spacecraft) if isinstance(spacecraft, str) else int(spacecraft)
     torque = _values(ds, "torque", "time", "spacecraft", "component")[:, i]
     command = _values(ds, "torque_command", "time", "spacecraft", "component")[:, i] if "torque_command" in ds else None
     t = ds["time"].values
-    fig, axes = _stacked(ds, 3, f"torque of {names[i]}")
+    t_w, mean, low, high = _windowed(t, torque)
+    windowed = len(t_w) < len(t)
+    fig, axes = _stacked(ds, 3, f"torque of {names[i]}" + (f" ({len(t) // len(t_w)}-sample windows)" if windowed else ""))
     limit = 1.15 * np.abs(torque).max()
     for k, (ax, comp) in enumerate(zip(axes, ds["component"].values)):
-        ax.plot(t, torque[:, k], drawstyle="steps-post", label="applied")
+        if windowed:
+            ax.fill_between(t_w, low[:, k], high[:, k], step="post", color="C0", alpha=0.25, lw=0, label="applied, min–max")
+        ax.plot(t_w, mean[:, k], drawstyle="steps-post", color="C0", label="applied, mean" if windowed else "applied")
         if command is not None:
-            ax.plot(t, command[:, k], "--", lw=0.8, color="k", label="commanded")
+            ax.plot(t_w, _windowed(t, command)[1][:, k], "--", lw=0.8, color="k",
+                    label="commanded, mean" if windowed else "commanded")
         if limit > 0.0:
             ax.set_ylim(-limit, limit)
         ax.set_ylabel(f"τ_{comp} [{ds['torque'].attrs['units']}]")
-    axes[0].legend(loc="upper right", fontsize="small")
+    _legend_outside(fig, axes[0])
     return fig
 
 
@@ -189,13 +218,17 @@ def sync_error_figure(ds, attitude_threshold_deg=None, rate_threshold_rad_s=None
         for i, name in enumerate(_names(ds)):
             axes[2].plot(t, np.maximum(error[:, i], LOG_FLOOR), label=name)
         axes[2].set_ylabel("error to\nreference [deg]")
-        axes[2].legend(loc="upper right", fontsize="small")
+        _legend_outside(fig, axes[2])
         attitude_axes.append(axes[2])
     if attitude_threshold_deg is not None:
         for ax in attitude_axes:
-            ax.axhline(attitude_threshold_deg, ls=":", color="k", label="threshold")
+            ax.axhline(attitude_threshold_deg, ls=":", color="k")
+            ax.annotate(f"threshold {attitude_threshold_deg:g}°", (1.0, attitude_threshold_deg), xycoords=("axes fraction", "data"),
+                        ha="right", va="bottom", fontsize="small")
     if rate_threshold_rad_s is not None:
-        axes[1].axhline(rate_threshold_rad_s, ls=":", color="k", label="threshold")
+        axes[1].axhline(rate_threshold_rad_s, ls=":", color="k")
+        axes[1].annotate(f"threshold {rate_threshold_rad_s:g} rad/s", (1.0, rate_threshold_rad_s),
+                         xycoords=("axes fraction", "data"), ha="right", va="bottom", fontsize="small")
     for ax in axes:
         ax.set_yscale("log")
     return fig

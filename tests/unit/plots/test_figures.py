@@ -124,3 +124,25 @@ def test_figures_without_a_commanded_or_any_torque():
     assert len(torque_figure(free).axes[0].lines) == 1  # the applied torque only
     forces_only = free.drop_vars("torque")
     assert set(standard_figures(forces_only)) == {"attitude", "rates", "sync_error"}
+
+
+def test_a_long_switching_record_is_drawn_per_window_with_legends_beside_the_data():
+    # 2000 samples of bang-bang torque (PWM at the published period): drawn as at most
+    # WINDOWS steps of the window mean, with the min–max band, not as a solid block.
+    from coopsat.plots.figures import WINDOWS
+
+    n_t = 2000
+    t = np.arange(n_t) * 0.5
+    sign = np.where(np.arange(n_t) % 2 == 0, 1.0, -1.0)
+    torque = 0.05 * np.broadcast_to(sign[:, None, None], (n_t, 1, 3)).copy()
+    ds = xr.Dataset(
+        {"torque": (("time", "spacecraft", "component"), torque, {"units": "N m"})},
+        coords={"time": ("time", t, {"units": "s"}), "spacecraft": ["sat1"], "component": ["x", "y", "z"]},
+    )
+    fig = torque_figure(ds)
+    ax = fig.axes[0]
+    mean_line = ax.lines[0]
+    assert len(mean_line.get_xdata()) <= WINDOWS
+    np.testing.assert_allclose(mean_line.get_ydata(), 0.0, atol=1e-15)  # the mean of ±0.05 is 0
+    assert len(ax.collections) == 1  # the min–max band
+    assert ax.get_legend() is None and len(fig.legends) == 1  # the legend is outside the axes

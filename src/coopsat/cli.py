@@ -102,6 +102,8 @@ def _cmd_margin(args):
             f"{built.scenario.name}: controller {built.scenario.controller.kind} has no delay margin "
             "(the leader-follower controller has one)"
         )
+    if check.detail is None:
+        raise ScenarioError(check.note)
     m = check.detail
     print(check.note)
     print(f"  delay_margin_s = {m.tau_s:.9g}")

@@ -8,12 +8,14 @@ compared with the largest single-hop delay the network can draw. The paper's met
 explanations live in :mod:`coopsat.analysis.papers.leader_follower_2018`.
 """
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import Field
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
-from coopsat.plugins.tables import Record, Table
+from coopsat.plugins.tables import MAX_GAIN, Record, Table
+
+Gain = Annotated[float, Field(ge=0, le=MAX_GAIN)]
 
 ANALYSIS = "coopsat.analysis.papers.leader_follower_2018"
 
@@ -34,7 +36,7 @@ class LeaderFollowerTable(Table):
         description="law3: own state current, what is heard delayed (paper eq. 3); classical: the whole "
         "relative state delayed.",
     )
-    gain: Record(float, float) = Field(description="K = [k_angle (N·m/rad), k_rate (N·m·s/rad)], every axis.")
+    gain: Record(Gain, Gain) = Field(description="K = [k_angle (N·m/rad), k_rate (N·m·s/rad)], every axis.")
     leader: str | None = Field(None, description="The leader spacecraft (default the first).")
 
 

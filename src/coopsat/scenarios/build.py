@@ -161,7 +161,9 @@ def _run_check(check, table, ctx, place):
     """
     try:
         results = check(table, ctx)
-    except (ArithmeticError, np.linalg.LinAlgError, FloatingPointError) as err:
+    except DesignError:
+        raise
+    except (ArithmeticError, np.linalg.LinAlgError, FloatingPointError, ValueError) as err:
         name = check.__name__.removeprefix("check_").replace("_", "-")
         return [DesignCheck(name, False, f"{place}: the {name} check could not be computed ({err})")]
     if results is None:

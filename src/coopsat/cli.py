@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|margin|design|bench``.
+"""Command line: ``coopsat list|show|validate|run|margin|design|topology|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -176,6 +176,66 @@ def _cmd_design_delay_gain(args):
     return 0
 
 
+def _topology_graphs(args):
+    """name -> adjacency for each GRAPH argument: a named graph of --nodes nodes, a scenario's
+    network (its first graph), or an adjacency file (whitespace- or comma-separated)."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from coopsat.network import topology
+    from coopsat.scenarios.load import ScenarioError, bundled_names, load_scenario
+
+    named = {"star": topology.star_adjacency, "ring": topology.ring_adjacency, "chain": topology.chain_adjacency,
+             "mesh": lambda n: topology.complete_adjacency(n), "complete": lambda n: topology.complete_adjacency(n)}
+    graphs = {}
+    for ref in args.graphs:
+        if ref in named:
+            graphs[ref] = named[ref](args.nodes)
+        elif ref in bundled_names() or ref.endswith(".toml"):
+            from coopsat.scenarios.build import build_adjacency
+
+            scenario = load_scenario(ref)
+            graphs[scenario.name] = build_adjacency(scenario.network, [sc.name for sc in scenario.spacecraft])
+        elif Path(ref).is_file():
+            try:
+                a = np.loadtxt(ref, delimiter="," if ref.endswith(".csv") else None, ndmin=2)
+                graphs[Path(ref).stem] = topology.validate_adjacency(a)
+            except ValueError as err:
+                raise ScenarioError(f"{ref}: not an adjacency matrix ({err})") from None
+        else:
+            raise ScenarioError(
+                f"topology: '{ref}' is not a named graph ({', '.join(named)}), a scenario, or an adjacency file"
+            )
+    return graphs
+
+
+def _cmd_topology(args):
+    from coopsat.analysis.papers.cartwheel_keeping import TABLE_1_LINK_RELIABILITY, TABLE_1_NODES, table1_rows
+    from coopsat.network.metrics import topology_table
+    from coopsat.scenarios.load import ScenarioError
+
+    if not 0.0 <= args.link_reliability <= 1.0:
+        raise ScenarioError(f"--link-reliability {args.link_reliability:g}: must be a probability in [0, 1]")
+    method, samples = ("monte-carlo", args.monte_carlo) if args.monte_carlo else ("auto", 100_000)
+    rows = topology_table(_topology_graphs(args), args.link_reliability, method=method, samples=samples)
+    print(f"link reliability {args.link_reliability:g}; reliability = mean two-terminal reliability over ordered pairs")
+    print(f"{'graph':<24}{'n':>5}{'links':>7}{'avg path':>10}{'reliability':>13}{'  method (95% CI)':<34}{'λ2':>8}  tree")
+    for r in rows:
+        how = r["reliability_method"] if r["reliability_method"] == "exact" else (
+            f"MC [{r['reliability_ci_low']:.4f}, {r['reliability_ci_high']:.4f}]")
+        print(f"{r['name'][:23]:<24}{r['n']:>5}{r['links']:>7}{r['average_shortest_path']:>10.4g}"
+              f"{r['reliability']:>13.6f}  {how:<32}{r['algebraic_connectivity']:>8.4g}  {'yes' if r['spanning_tree'] else 'no'}")
+    if args.nodes == TABLE_1_NODES and args.link_reliability == TABLE_1_LINK_RELIABILITY:
+        compared = table1_rows(rows)
+        if compared:
+            print("\nTable 1 of the cartwheel paper (SPEC §2), published beside ours:")
+            for c in compared:
+                print(f"  {c['name']:<6}{c['quantity']:<23}{c['published']:>8g}{c['ours']:>11.6g}  {c['verdict']}"
+                      + (f": {c['reason']}" if c["reason"] else ""))
+    return 0
+
+
 def _cmd_bench(args):
     from coopsat.bench import run_benchmarks
 
@@ -226,6 +286,14 @@ def build_parser():
     dg.add_argument("--out", help="file that receives the designed gain (default <scenario>-delay-gain.toml)")
     dg.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
     dg.set_defaults(func=_cmd_design_delay_gain)
+
+    topo = sub.add_parser("topology", help="compare communication graphs: path length, reliability, connectivity")
+    topo.add_argument("graphs", nargs="+", metavar="GRAPH",
+                      help="star, ring, mesh, chain; a scenario (its network); or an adjacency file (.csv or .txt)")
+    topo.add_argument("--nodes", type=int, default=4, help="nodes of a named graph (default 4)")
+    topo.add_argument("--link-reliability", type=float, default=0.8, help="probability that a link works (default 0.8)")
+    topo.add_argument("--monte-carlo", type=int, metavar="K", help="estimate reliability from K random link states")
+    topo.set_defaults(func=_cmd_topology)
 
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")

@@ -3,4 +3,24 @@
 import os
 import tempfile
 
+import pytest
+
 os.environ.setdefault("COOPSAT_JAX_CACHE", os.path.join(tempfile.gettempdir(), "coopsat-test-jax-cache"))
+
+
+def _run_toml(directory, text, overrides=()):
+    """Write a scenario's TOML into ``directory``, build and run it: (built, dataset)."""
+    from coopsat.pipeline import prepare, simulate_built
+    from coopsat.scenarios.load import load_scenario
+
+    path = directory / "scenario.toml"
+    path.write_text(text, encoding="utf-8")
+    built = prepare(load_scenario(path, overrides))
+    ds, _ = simulate_built(built)
+    return built, ds
+
+
+@pytest.fixture(scope="session")
+def run_toml():
+    """``run_toml(directory, text, overrides=()) -> (built, dataset)``: a scenario from text."""
+    return _run_toml

@@ -114,7 +114,7 @@ def analyse(built, ds, compare=True):
     metrics = {**built.design_metrics, **run_metrics(ds, built.names, inertia, h_wheels), **paper_metrics(ds, built)}
     if not compare:
         return metrics, []
-    note = "; ".join(built.failed_checks) or None
+    note = "; ".join(built.warnings) or None
     return metrics, compare_published(sc.published, metrics, note, sc.sim.t_final_s, explainers(built))
 
 

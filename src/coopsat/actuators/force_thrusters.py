@@ -57,8 +57,22 @@ def force_impulse_increments(pulse):
     return {"force_impulse": pulse.level_nm * pulse.t_off_s, "abs_force_impulse": jnp.abs(pulse.level_nm) * pulse.t_off_s}
 
 
+class _ForceActuator:
+    """What every force actuator part shares: its channel follows its ``frame``, its mean output
+    is the force (from the signed impulse), and it records nothing at the sample."""
+
+    mean_output = ("force", "force_impulse")
+
+    @property
+    def channel(self):
+        return FRAMES[self.frame][0]
+
+    def record(self, x, state):
+        return {}
+
+
 @part(static=("frame", "command"))
-class ImpulseBitThrusters:
+class ImpulseBitThrusters(_ForceActuator):
     """MEMS thrusters firing whole impulse bits, one ± pair per axis (SPEC §2).
 
     Each period the commanded force ``f`` (N, per axis) is turned into the wanted impulse
@@ -93,11 +107,6 @@ class ImpulseBitThrusters:
     command: str = "force_lvlh"
 
     pulsed = True
-    mean_output = ("force", "force_impulse")
-
-    @property
-    def channel(self):
-        return FRAMES[self.frame][0]
 
     def init(self, n):
         return jnp.zeros((3, n))
@@ -106,9 +115,6 @@ class ImpulseBitThrusters:
         bits, remainder = quantise_impulse(command * period_s, state, self.bit_ns, self.max_bits)
         level, t_on = bits_pulse(bits, self.bit_ns, self.thrust_n)
         return Pulse(level, t_on), remainder
-
-    def record(self, x, state):
-        return {}
 
     def account(self, pulse):
         """Impulse counters, and the whole bits fired per axis (either sign)."""
@@ -127,7 +133,7 @@ class ImpulseBitThrusters:
 
 
 @part(static=("frame", "command"))
-class ProportionalThrusters:
+class ProportionalThrusters(_ForceActuator):
     """Proportional thrusters with a dead zone, one per axis (SPEC §4: 1–100 mN).
 
     The commanded force per axis is held over the period: zero when ``|f| < force_min_n``,
@@ -149,11 +155,6 @@ class ProportionalThrusters:
     command: str = "force_lvlh"
 
     pulsed = False
-    mean_output = ("force", "force_impulse")
-
-    @property
-    def channel(self):
-        return FRAMES[self.frame][0]
 
     def init(self, n):
         return ()
@@ -161,9 +162,6 @@ class ProportionalThrusters:
     def plan(self, command, x, state, period_s, key):
         level = deadzone_thrust(command, self.force_min_n, self.force_max_n)
         return Pulse(level, jnp.full_like(level, period_s)), state
-
-    def record(self, x, state):
-        return {}
 
     def account(self, pulse):
         return force_impulse_increments(pulse)

@@ -97,6 +97,42 @@ def _chief(a, chief, axis):
     return jnp.expand_dims(jnp.take(a, chief, axis=sc_axis), sc_axis)
 
 
+STATE_QUANTITIES = {
+    "q": ("q_bi", "attitude q"),
+    "angle": ("angle_rad", "attitude angle"),
+    "omega": ("omega_b", "rate omega"),
+    "h_wheels": ("h_wheels_b", "wheel momentum"),
+    "r_eci": ("r_eci", "position"),
+    "v_eci": ("v_eci", "velocity"),
+}
+"""Named state quantities (what sensors read and runs record): the :class:`PlantState` field
+of each and a short label for messages."""
+
+DRIVEN_STATE = {"wheel_torque_b": "h_wheels"}
+"""Wrench channels that drive a state of their own (integrated only when some part uses them)."""
+
+
+def state_quantities(attitude, gravity, channels):
+    """Names of the state quantities that evolve in a run, in a fixed order.
+
+    Parameters
+    ----------
+    attitude : {"rigid-body", "small-angle"}
+    gravity : {"none", "two-body", "j2"}
+        "none" freezes position and velocity.
+    channels : iterable of str
+        Wrench channels the run's actuators use.
+
+    Returns
+    -------
+    tuple of str
+        Keys of :data:`STATE_QUANTITIES`.
+    """
+    names = ["angle" if attitude == "small-angle" else "q", "omega"]
+    names += [DRIVEN_STATE[c] for c in sorted(set(channels)) if c in DRIVEN_STATE]
+    return tuple(names + ([] if gravity == "none" else ["r_eci", "v_eci"]))
+
+
 ATTITUDE_MODELS = ("rigid-body", "small-angle")
 """Attitude models: the full rigid body (quaternion, Euler's equation), or its small-angle
 linearisation about rest, ``θ̇ = ω``, ``I ω̇ = τ`` (per axis a double integrator, the model of

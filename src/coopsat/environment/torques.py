@@ -9,12 +9,12 @@ records at a sample. Arrays are component-major, (3, n).
 
 from coopsat import _jax  # noqa: F401
 
-import jax
 import jax.numpy as jnp
 
 from coopsat._parts import OutputSpec, part
 from coopsat.dynamics.rigid_body import matvec3
 from coopsat.geometry.quaternion import cross, dot, quat_conjugate, quat_rotate
+from coopsat.sensors.noise import per_spacecraft_normal
 
 
 def gravity_gradient_torque_b(q_bi, r_eci_m, inertia_kgm2, mu_m3_s2, axis=-1):
@@ -94,9 +94,7 @@ class RandomTorque:
 
     def update(self, t, x, state, key):
         """Draw this period's torque; each spacecraft has its own stream (``fold_in``)."""
-        n = state.shape[-1]
-        draws = jax.vmap(lambda i: jax.random.normal(jax.random.fold_in(key, i), (3,)), out_axes=1)(jnp.arange(n))
-        return self.sigma_nm * draws
+        return self.sigma_nm * per_spacecraft_normal(key, 3, state.shape[-1])
 
     def wrench(self, t, x, state):
         return {"torque_b": state}

@@ -73,10 +73,20 @@ def max_bits(table, period_s):
     return table.max_bits_per_period
 
 
+def _check_translation(ctx):
+    """A force needs the translational truth model and every spacecraft's mass."""
+    if ctx.scenario.orbit is None:
+        raise DesignError("actuators: a force actuator needs an [orbit] table (the translational truth model)")
+    missing = [sc.name for sc in ctx.scenario.spacecraft if sc.mass_kg is None]
+    if missing:
+        raise DesignError(f"spacecraft: a force acts, so every spacecraft needs mass_kg; missing for {missing}")
+
+
 def _build_bits(table, ctx):
     from coopsat.actuators.force_thrusters import ImpulseBitThrusters as Part
     from coopsat.sim.system import as_arrays
 
+    _check_translation(ctx)
     bits = float(max_bits(table, ctx.period_s))
     return Part(*as_arrays((table.bit_ns, table.thrust_n, bits)), frame=table.frame, command=_command(table))
 
@@ -85,6 +95,7 @@ def _build_proportional(table, ctx):
     from coopsat.actuators.force_thrusters import ProportionalThrusters as Part
     from coopsat.sim.system import as_arrays
 
+    _check_translation(ctx)
     return Part(*as_arrays((table.force_min_n, table.force_max_n)), frame=table.frame, command=_command(table))
 
 

@@ -74,11 +74,6 @@ class Built:
             m.update(check.metrics)
         return m
 
-    @property
-    def failed_checks(self):
-        """Notes of the checks that failed (the run will not do what its design promises)."""
-        return [c.note for c in self.checks.values() if not c.ok]
-
 
 def inertia_matrix(inertia):
     """3×3 inertia from a diagonal triple or a full matrix, kg·m²."""
@@ -171,10 +166,12 @@ def _run_check(check, table, ctx, place):
     return [results] if isinstance(results, DesignCheck) else list(results)
 
 
-def _check_sensed_quantities(scenario, sensors):
+def _check_sensed_quantities(scenario, sensors, actuators):
     """Every sensor measures a quantity the run's models have."""
-    have = {"angle" if scenario.sim.attitude == "small-angle" else "q", "omega"}
-    have |= {"r_eci", "v_eci"} if scenario.orbit is not None else set()
+    from coopsat.dynamics.plant import state_quantities
+
+    gravity = "none" if scenario.orbit is None else scenario.orbit.gravity
+    have = set(state_quantities(scenario.sim.attitude, gravity, (a.channel for a in actuators)))
     for k, s in enumerate(sensors):
         if s.quantity not in have:
             raise ScenarioError(
@@ -201,8 +198,8 @@ def build(scenario):
     ------
     ScenarioError
         On a graph that references unknown spacecraft, a plug-in that cannot be built as
-        configured (a graph without a spanning tree for law (3), a delay that is not a whole
-        number of periods, …), or another inconsistency that needs more than one table to see.
+        configured (the plug-in's own message), or another inconsistency that needs more than one
+        table to see.
     """
     import jax
 
@@ -238,15 +235,9 @@ def build(scenario):
         except DesignError as err:
             raise ScenarioError(str(err)) from None
         used.append(plugin)
-    _check_sensed_quantities(scenario, parts["sensor"])
+    _check_sensed_quantities(scenario, parts["sensor"], parts["actuator"])
     act_places = [place for role, place, _ in _scenario_tables(scenario) if role == "actuator"]
     _check_commands(parts["controller"][0], parts["actuator"], act_places)
-    forces = [a for a in parts["actuator"] if a.channel.startswith("force")]
-    if forces and scenario.orbit is None:
-        raise ScenarioError("actuators: a force actuator needs an [orbit] table (the translational truth model)")
-    if forces and any(sc.mass_kg is None for sc in scenario.spacecraft):
-        missing = [sc.name for sc in scenario.spacecraft if sc.mass_kg is None]
-        raise ScenarioError(f"spacecraft: a force acts, so every spacecraft needs mass_kg; missing for {missing}")
 
     orbit = scenario.orbit
     structure = Structure(

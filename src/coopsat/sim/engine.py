@@ -7,8 +7,9 @@ Per control period (``ticks_per_period`` base ticks), with the parts of a
           → actuate (one pulse per actuator) → update disturbances
           → integrate every tick of the period with RK4 → account (actuator counters)
 
-The engine names no law, actuator or sensor: it calls each part's methods. Pulsed actuators
-(PWM, impulse bits) switch inside a tick; each tick is then integrated piecewise between the
+The engine names no law, actuator or sensor: it calls each part's methods, and asks the plant
+which state quantities a run's wrench channels set moving. Pulsed actuators switch inside a
+tick; each tick is then integrated piecewise between the
 sorted switch instants of each spacecraft, so on-times are honoured exactly. Inside the loop
 every per-spacecraft array is component-major, ``(k, n)``: each component is a contiguous row,
 so XLA vectorises the arithmetic over spacecraft (twice the throughput of ``(n, k)`` on the
@@ -35,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from coopsat.actuators.pulses import torque_between
-from coopsat.dynamics.plant import plant_derivative
+from coopsat.dynamics.plant import STATE_QUANTITIES, plant_derivative, state_quantities
 from coopsat.geometry.quaternion import quat_normalize
 
 
@@ -65,19 +66,14 @@ def _engine_view(system):
 # --- integration ------------------------------------------------------------------------------
 
 
-def _wheels(system):
-    """Static: some part turns wheels (their momentum is then integrated)."""
-    return any(a.channel == "wheel_torque_b" for a in system.actuators)
-
-
-def _small_angle(system):
-    return system.structure.attitude == "small-angle"
+def _quantities(system):
+    """Static: the state quantities that evolve in this run (:func:`state_quantities`)."""
+    s = system.structure
+    return state_quantities(s.attitude, s.gravity, (a.channel for a in system.actuators))
 
 
 def _moving_fields(system):
-    attitude = ("angle_rad", "omega_b") if _small_angle(system) else ("q_bi", "omega_b")
-    fields = attitude + (("h_wheels_b",) if _wheels(system) else ())
-    return fields if system.structure.gravity == "none" else fields + ("r_eci", "v_eci")
+    return tuple(STATE_QUANTITIES[q][0] for q in _quantities(system))
 
 
 def _add(wrench, channel, value):
@@ -167,7 +163,7 @@ def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched)
             lambda act, p: jnp.where(p.t_off_s >= t_in_period + dt, p.level_nm, 0.0) if act.pulsed else p.level_nm,
         )
         x = jax.lax.cond(switch_inside, split, lambda xx: smooth(xx, held), x)
-    return x if _small_angle(system) else x._replace(q_bi=quat_normalize(x.q_bi, AXIS))
+    return x._replace(q_bi=quat_normalize(x.q_bi, AXIS)) if "q" in _quantities(system) else x
 
 
 # --- one control period ------------------------------------------------------------------------
@@ -176,12 +172,7 @@ def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched)
 def _truth(system, x):
     """The true state as named quantities, component-major: what ideal sensors read, and what
     a sample records of the plant."""
-    y = {"angle": x.angle_rad, "omega": x.omega_b} if _small_angle(system) else {"q": x.q_bi, "omega": x.omega_b}
-    if _wheels(system):
-        y["h_wheels"] = x.h_wheels_b
-    if system.structure.gravity != "none":
-        y.update(r_eci=x.r_eci, v_eci=x.v_eci)
-    return y
+    return {q: getattr(x, STATE_QUANTITIES[q][0]) for q in _quantities(system)}
 
 
 def _sense(system, x, st, frame, key):
@@ -355,7 +346,7 @@ def output_specs(system):
     """
     from coopsat.sim.outputs import measured_output_spec, state_output_specs
 
-    specs = state_output_specs(_wheels(system), system.structure.gravity != "none", _small_angle(system))
+    specs = state_output_specs(_quantities(system))
     specs.update({f"measured_{s.quantity}": measured_output_spec(s.quantity) for s in system.sensors})
     for p in (system.controller, system.network, *system.sensors, *system.actuators, *system.disturbances):
         specs.update(p.output_specs())
@@ -407,7 +398,7 @@ MAX_CHUNK = 4096
 
 def _check_finite(samples, t_s, offset, batched, names=None):
     """Raise :class:`NonFiniteStateError` naming the first sample, spacecraft and field."""
-    for name in ("q", "angle", "omega", "h_wheels", "r_eci", "v_eci"):
+    for name, (_, label) in STATE_QUANTITIES.items():
         if name not in samples:
             continue
         a = np.asarray(samples[name])
@@ -417,7 +408,6 @@ def _check_finite(samples, t_s, offset, batched, names=None):
             k = idx[1] if batched else idx[0]
             sc = idx[-1]
             run = f"run {idx[0]}, " if batched else ""
-            label = {"q": "attitude q", "angle": "attitude angle", "omega": "rate omega", "h_wheels": "wheel momentum"}.get(name, name)
             who = names[sc] if names is not None else f"spacecraft index {sc}"
             raise NonFiniteStateError(
                 f"state became non-finite: {run}{label} of {who} at t = {t_s[offset + k]:g} s "

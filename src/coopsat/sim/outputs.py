@@ -16,16 +16,14 @@ _STATE_OUTPUTS = {
 }
 
 
-def state_output_specs(wheels, orbit, small_angle=False):
-    """Specs of the recorded state: attitude (quaternion, or angles in the small-angle model)
-    and rate always; wheel momentum when wheels turn; position and velocity with an orbit.
+def state_output_specs(quantities):
+    """Specs of the recorded state quantities (:func:`coopsat.dynamics.plant.state_quantities`).
 
     Returns
     -------
     dict of str -> OutputSpec
     """
-    keys = ["angle" if small_angle else "q", "omega"] + (["h_wheels"] if wheels else []) + (["r_eci", "v_eci"] if orbit else [])
-    return {k: _STATE_OUTPUTS[k] for k in keys}
+    return {k: _STATE_OUTPUTS[k] for k in quantities}
 
 
 def measured_output_spec(quantity):

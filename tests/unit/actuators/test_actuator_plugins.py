@@ -8,19 +8,11 @@ import pytest
 
 from coopsat.analysis.metrics import inertial_angular_momentum_nms
 from coopsat.geometry.frames import lvlh_dcm
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.pipeline import prepare
 from coopsat.scenarios.load import ScenarioError, load_scenario
 
 A_M = 6878137.0  # 500 km circular orbit
 BIT_NS = 1e-5
-
-
-def _run(tmp_path, text, overrides=()):
-    path = tmp_path / "scenario.toml"
-    path.write_text(text, encoding="utf-8")
-    built = prepare(load_scenario(path, overrides))
-    ds, _ = simulate_built(built)
-    return built, ds
 
 
 def _formation(n_spacecraft, mass_kg, controller, actuators, t_final_s=3.0, period_s=0.1):
@@ -66,8 +58,8 @@ thrust_n = 1.0""",
 
 
 @pytest.fixture(scope="module")
-def bits_run(tmp_path_factory):
-    return _run(tmp_path_factory.mktemp("bits"), BITS_SCENARIO)
+def bits_run(tmp_path_factory, run_toml):
+    return run_toml(tmp_path_factory.mktemp("bits"), BITS_SCENARIO)
 
 
 def test_impulse_bits_are_whole_and_the_remainder_is_carried(bits_run):
@@ -129,7 +121,7 @@ def test_a_force_actuator_needs_masses(tmp_path):
 
 
 @pytest.fixture(scope="module")
-def proportional_run(tmp_path_factory):
+def proportional_run(tmp_path_factory, run_toml):
     # Three deputies on the chief with k_p = 1 N/m and targets 0.5 mm, 5 cm and 0.5 m ahead:
     # commands 0.5 mN (below the 1 mN minimum), ≈ 50 mN (inside the band), ≈ 0.5 N (above
     # the 0.1 N maximum). 100 kg keeps each deputy within 5 mm of the chief over the 3 s.
@@ -146,7 +138,7 @@ kind = "proportional-thrusters"
 force_min_n = 0.001
 force_max_n = 0.1""",
     )
-    return _run(tmp_path_factory.mktemp("proportional"), text)
+    return run_toml(tmp_path_factory.mktemp("proportional"), text)
 
 
 def test_a_command_below_the_minimum_force_gives_no_thrust(proportional_run):
@@ -221,8 +213,8 @@ torque_max_nm = 0.05
 
 
 @pytest.fixture(scope="module")
-def wheels_run(tmp_path_factory):
-    return _run(tmp_path_factory.mktemp("wheels"), WHEELS_SCENARIO)
+def wheels_run(tmp_path_factory, run_toml):
+    return run_toml(tmp_path_factory.mktemp("wheels"), WHEELS_SCENARIO)
 
 
 def test_wheels_exchange_momentum_with_the_body_and_conserve_the_total(wheels_run):

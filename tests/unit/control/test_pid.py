@@ -8,19 +8,11 @@ import pytest
 from coopsat.astro.kepler import elements_to_rv
 from coopsat.control.pid import attitude_error_vector
 from coopsat.geometry.frames import eci_to_lvlh, lvlh_to_eci
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.pipeline import prepare
 from coopsat.scenarios.load import ScenarioError, load_scenario
 
 MU = 3.986004418e14
 A_M = 6878137.0
-
-
-def _run(tmp_path, text, overrides=()):
-    path = tmp_path / "scenario.toml"
-    path.write_text(text, encoding="utf-8")
-    built = prepare(load_scenario(path, overrides))
-    ds, _ = simulate_built(built)
-    return built, ds
 
 
 def _vec(a):
@@ -58,8 +50,8 @@ torque_max_nm = 1e-20
 """
 
 
-def test_the_integral_after_m_periods_is_m_periods_times_the_error(tmp_path):
-    _, ds = _run(tmp_path, HELD_SCENARIO)
+def test_the_integral_after_m_periods_is_m_periods_times_the_error(tmp_path, run_toml):
+    _, ds = run_toml(tmp_path, HELD_SCENARIO)
     e = math.sin(HALF) * AXIS  # vec(q_t* ⊗ q) with q_t = identity; −q is the same attitude
     np.testing.assert_allclose(np.asarray(attitude_error_vector(Q_HELD, np.array([1.0, 0, 0, 0]))), e, atol=1e-16)
     m = np.arange(len(ds.time))  # sample m is after m periods of 0.1 s
@@ -70,8 +62,8 @@ def test_the_integral_after_m_periods_is_m_periods_times_the_error(tmp_path):
     np.testing.assert_allclose(ds.torque_command.values, np.broadcast_to(u, (len(m), 2, 3)), rtol=0, atol=1e-12)
 
 
-def test_the_integral_is_clamped_by_integral_max(tmp_path):
-    _, ds = _run(tmp_path, HELD_SCENARIO.replace("k_i = 0.5", "k_i = 0.5\nintegral_max = 0.05"))
+def test_the_integral_is_clamped_by_integral_max(tmp_path, run_toml):
+    _, ds = run_toml(tmp_path, HELD_SCENARIO.replace("k_i = 0.5", "k_i = 0.5\nintegral_max = 0.05"))
     e = math.sin(HALF) * AXIS
     m = np.arange(len(ds.time))
     expected = np.clip(m[:, None] * 0.1 * e[None, :], -0.05, 0.05)
@@ -109,9 +101,9 @@ kind = "gravity-gradient"
 
 
 @pytest.fixture(scope="module")
-def gg_runs(tmp_path_factory):
+def gg_runs(tmp_path_factory, run_toml):
     tmp = tmp_path_factory.mktemp("gg")
-    return _run(tmp, GG_SCENARIO, ["controller.k_i=0.0"]), _run(tmp, GG_SCENARIO)
+    return run_toml(tmp, GG_SCENARIO, ["controller.k_i=0.0"]), run_toml(tmp, GG_SCENARIO)
 
 
 def test_a_pd_leaves_the_steady_error_l_over_kp(gg_runs):
@@ -174,10 +166,10 @@ force_max_n = 0.1
 """
 
 
-def test_a_deputy_10_m_off_its_target_converges_to_it(tmp_path):
+def test_a_deputy_10_m_off_its_target_converges_to_it(tmp_path, run_toml):
     # Target 10 m ahead of the chief (an equilibrium of the circular orbit); start 6 m further
     # along track and 8 m lower: 10 m off.
-    built, ds = _run(tmp_path, _lvlh_scenario([16.0, 0.0, 8.0], [10.0, 0.0, 0.0]))
+    built, ds = run_toml(tmp_path, _lvlh_scenario([16.0, 0.0, 8.0], [10.0, 0.0, 0.0]))
     assert not built.warnings
     rho = ds.rho_lvlh.values[:, 1]
     np.testing.assert_allclose(rho[0], [16.0, 0.0, 8.0], atol=1e-8)
@@ -194,8 +186,8 @@ def test_a_deputy_10_m_off_its_target_converges_to_it(tmp_path):
     assert np.abs(ds.force.values[:, 1]).max() <= 0.1
 
 
-def test_without_a_dead_band_the_deputy_settles_on_the_target(tmp_path):
-    _, ds = _run(tmp_path, _lvlh_scenario([16.0, 0.0, 8.0], [10.0, 0.0, 0.0], force_min_n=0.0))
+def test_without_a_dead_band_the_deputy_settles_on_the_target(tmp_path, run_toml):
+    _, ds = run_toml(tmp_path, _lvlh_scenario([16.0, 0.0, 8.0], [10.0, 0.0, 0.0], force_min_n=0.0))
     err = np.linalg.norm(ds.rho_lvlh.values[:, 1] - [10.0, 0.0, 0.0], axis=1)
     assert err[-1] < 1e-3 * err[0]
 

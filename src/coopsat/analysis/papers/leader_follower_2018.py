@@ -19,7 +19,7 @@ def _errors(ds, built):
     lead = built.names.index(ctrl.leader or built.names[0])
     followers = [k for k in range(len(built.names)) if k != lead]
     angle, rate = ds["angle"].values, ds["omega"].values
-    return angle[:, followers] - angle[:, [lead]], rate[:, followers] - rate[:, [lead]], lead
+    return angle[:, followers] - angle[:, [lead]], rate[:, followers] - rate[:, [lead]]
 
 
 def steady_lag_rad(built, tau_s):
@@ -71,7 +71,7 @@ def metrics(ds, built):
 
     a = built.scenario.analysis
     t = ds["time"].values
-    d_angle, d_rate, _ = _errors(ds, built)
+    d_angle, d_rate = _errors(ds, built)
     rate_err = np.abs(d_rate).max(axis=(1, 2))
     late = t >= t[0] + 0.75 * (t[-1] - t[0])
     m = {

@@ -73,7 +73,7 @@ def max_bits(table, period_s):
     return table.max_bits_per_period
 
 
-def _check_translation(ctx):
+def check_translation(table, ctx):
     """A force needs the translational truth model and every spacecraft's mass."""
     if ctx.scenario.orbit is None:
         raise DesignError("actuators: a force actuator needs an [orbit] table (the translational truth model)")
@@ -86,7 +86,6 @@ def _build_bits(table, ctx):
     from coopsat.actuators.force_thrusters import ImpulseBitThrusters as Part
     from coopsat.sim.system import as_arrays
 
-    _check_translation(ctx)
     bits = float(max_bits(table, ctx.period_s))
     return Part(*as_arrays((table.bit_ns, table.thrust_n, bits)), frame=table.frame, command=_command(table))
 
@@ -95,7 +94,6 @@ def _build_proportional(table, ctx):
     from coopsat.actuators.force_thrusters import ProportionalThrusters as Part
     from coopsat.sim.system import as_arrays
 
-    _check_translation(ctx)
     return Part(*as_arrays((table.force_min_n, table.force_max_n)), frame=table.frame, command=_command(table))
 
 
@@ -121,5 +119,7 @@ def check_proportional(table, ctx):
     )
 
 
-register(Plugin("actuator", "impulse-bit-thrusters", ImpulseBitThrusters, _build_bits, (check_bits,)))
-register(Plugin("actuator", "proportional-thrusters", ProportionalThrusters, _build_proportional, (check_proportional,)))
+register(Plugin("actuator", "impulse-bit-thrusters", ImpulseBitThrusters, _build_bits, (check_translation, check_bits)))
+register(
+    Plugin("actuator", "proportional-thrusters", ProportionalThrusters, _build_proportional, (check_translation, check_proportional))
+)

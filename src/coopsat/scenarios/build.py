@@ -180,15 +180,14 @@ def _check_sensed_quantities(scenario, sensors, actuators):
             )
 
 
-def _check_commands(controller, actuators, places):
-    """Every actuator executes a command its controller issues (a controller that commands
+def _check_command(controller, actuator, place):
+    """An actuator executes a command its controller issues (a controller that commands
     nothing leaves its actuators at rest)."""
     issued = getattr(controller, "commands", ())
-    for act, place in zip(actuators, places):
-        if issued and act.command not in issued:
-            raise ScenarioError(
-                f"{place}: executes the command '{act.command}' but the controller issues {', '.join(issued)}"
-            )
+    if issued and actuator.command not in issued:
+        raise ScenarioError(
+            f"{place}: executes the command '{actuator.command}' but the controller issues {', '.join(issued)}"
+        )
 
 
 def build(scenario):
@@ -229,6 +228,8 @@ def build(scenario):
         plugin = plugin_for(role, table)
         try:
             parts[role].append(plugin.build(table, ctx))
+            if role == "actuator":  # the controller is built first
+                _check_command(parts["controller"][0], parts[role][-1], place)
             for check in plugin.checks:
                 for result in _run_check(check, table, ctx, place):
                     checks[result.name] = result
@@ -236,8 +237,6 @@ def build(scenario):
             raise ScenarioError(str(err)) from None
         used.append(plugin)
     _check_sensed_quantities(scenario, parts["sensor"], parts["actuator"])
-    act_places = [place for role, place, _ in _scenario_tables(scenario) if role == "actuator"]
-    _check_commands(parts["controller"][0], parts["actuator"], act_places)
 
     orbit = scenario.orbit
     structure = Structure(

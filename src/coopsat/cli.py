@@ -20,8 +20,9 @@ def _input_errors():
     from coopsat.pipeline import RunFolderError
     from coopsat.scenarios.load import ScenarioError
     from coopsat.sim.engine import NonFiniteStateError
+    from coopsat.tradeoff import TradeoffError
 
-    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError)
+    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError)
 
 
 def _cmd_list(args):
@@ -236,6 +237,29 @@ def _cmd_topology(args):
     return 0
 
 
+def _cmd_tradeoff(args):
+    from coopsat.tradeoff import DEFAULT_SCALES_N, TradeoffError, run_tradeoff
+
+    try:
+        scales = [float(v) for v in args.scales.split(",")] if args.scales else list(DEFAULT_SCALES_N)
+    except ValueError:
+        raise TradeoffError(f"--scales {args.scales}: give comma-separated force scales in N, e.g. 0.01,0.1,1") from None
+    coords = tuple(args.coordinates.split(","))
+    bad = [c for c in coords if c not in ("hub", "orthonormal")]
+    if bad:
+        raise TradeoffError(f"--coordinates: unknown {bad} (known: hub, orthonormal)")
+    out = args.out or "runs/tradeoff"
+    rows, comparisons, compile_s, run_s = run_tradeoff(args.scenarios, out, scales, coords, progress=not args.quiet)
+    print(f"wrote {out}  ({len(rows)} runs; compile {compile_s:.2f} s, run {run_s:.2f} s)")
+    for c in comparisons:
+        if c["overlap_s"] is None:
+            print(f"  {c['coordinates']}: the LMI and LQR fronts do not overlap in settling time")
+            continue
+        for t, fa, fb, p in zip(c["settle_s"], c["fuel_a"], c["fuel_b"], c["saving_percent"]):
+            print(f"  {c['coordinates']:<12} settling {t:7.0f} s: LMI {fa:.4g} N s, LQR {fb:.4g} N s, LMI saves {p:+.2f} %")
+    return 0
+
+
 def _cmd_bench(args):
     from coopsat.bench import run_benchmarks
 
@@ -294,6 +318,16 @@ def build_parser():
     topo.add_argument("--link-reliability", type=float, default=0.8, help="probability that a link works (default 0.8)")
     topo.add_argument("--monte-carlo", type=int, metavar="K", help="estimate reliability from K random link states")
     topo.set_defaults(func=_cmd_topology)
+
+    trade = sub.add_parser(
+        "tradeoff", help="fuel against settling time of formation designs, swept over their weight (SPEC §4)"
+    )
+    trade.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="formation-observer scenarios (e.g. the -lmi and -lqr pair)")
+    trade.add_argument("--scales", help="comma-separated Bryson force scales to sweep, N (default 0.005 … 1)")
+    trade.add_argument("--coordinates", default="hub,orthonormal", help="relative coordinates to sweep (default hub,orthonormal)")
+    trade.add_argument("--out", help="output folder (default runs/tradeoff)")
+    trade.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    trade.set_defaults(func=_cmd_tradeoff)
 
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")

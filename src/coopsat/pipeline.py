@@ -4,6 +4,7 @@ The run folder is written to a temporary sibling folder and renamed into place a
 so a failed run (bad input, non-finite state) leaves nothing half-written.
 """
 
+import importlib
 import json
 import os
 import shutil
@@ -19,7 +20,7 @@ import coopsat
 from coopsat import _interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import run_metrics
-from coopsat.analysis.papers import explainers, paper_metrics
+from coopsat.analysis.papers import explainers, paper_metrics, paper_modules
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
 from coopsat.scenarios.load import ScenarioError, load_scenario, resolved_toml
 
@@ -209,6 +210,9 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
 
             a = built.scenario.analysis
             save_figures(standard_figures(ds, a.sync_attitude_deg, a.sync_rate_rad_s), tmp)
+            for module in paper_modules(built):
+                if hasattr(module, "FIGURES"):
+                    save_figures(importlib.import_module(module.FIGURES).figures(ds, built), tmp)
         if out_dir.exists():
             trash = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
             out_dir.rename(trash / out_dir.name)

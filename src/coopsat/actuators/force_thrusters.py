@@ -3,7 +3,8 @@
 
 Both act through a force channel of :data:`coopsat.dynamics.plant.WRENCH_CHANNELS`: the chief's
 LVLH axes (``force_lvlh``: thrusters kept aligned with the chief's LVLH frame by the attitude
-control) or the body axes (``force_b``). A :class:`~coopsat.actuators.pulses.Pulse` carries a
+control), the body axes (``force_b``), or inertial axes (``force_eci``: thrusters held fixed in
+inertial space, the deep-space formation's assumption, SPEC §4). A :class:`~coopsat.actuators.pulses.Pulse` carries a
 force here: its field ``level_nm`` holds newtons.
 
 Counters (cumulative from t = 0, per axis of the actuator's frame): ``force_impulse``, the signed
@@ -22,12 +23,12 @@ from coopsat.actuators.impulse_bits import bits_pulse, quantise_impulse
 from coopsat.actuators.pulses import Pulse
 from coopsat.actuators.thrusters import deadzone_thrust
 
-FRAMES = {"lvlh": ("force_lvlh", "LVLH"), "body": ("force_b", "body")}
+FRAMES = {"lvlh": ("force_lvlh", "LVLH"), "body": ("force_b", "body"), "inertial": ("force_eci", "ECI")}
 """Scenario ``frame`` -> (wrench channel, frame label of the recorded vectors)."""
 
 
 def force_outputs(frame):
-    """Recorded outputs shared by every force actuator, vectors in ``frame`` (``"lvlh"``/``"body"``).
+    """Recorded outputs shared by every force actuator, vectors in ``frame`` (``"lvlh"``/``"body"``/``"inertial"``).
 
     Returns
     -------
@@ -90,8 +91,8 @@ class ImpulseBitThrusters(_ForceActuator):
         Force of one firing thruster, N.
     max_bits : scalar
         Most bits one axis fires per period (float; ``max_bits·bit/thrust ≤ T``).
-    frame : {"lvlh", "body"}
-        Static: the axes of the thrusters (channel ``force_lvlh`` or ``force_b``).
+    frame : {"lvlh", "body", "inertial"}
+        Static: the axes of the thrusters (channel ``force_lvlh``, ``force_b`` or ``force_eci``).
     command : str
         Static: the controller command it executes (a force, N, in ``frame``).
 
@@ -143,7 +144,7 @@ class ProportionalThrusters(_ForceActuator):
     ----------
     force_min_n, force_max_n : scalar
         Smallest and largest force per axis, N.
-    frame : {"lvlh", "body"}
+    frame : {"lvlh", "body", "inertial"}
         Static: the axes of the thrusters.
     command : str
         Static: the controller command it executes (a force, N, in ``frame``).
@@ -164,7 +165,14 @@ class ProportionalThrusters(_ForceActuator):
         return Pulse(level, jnp.full_like(level, period_s)), state
 
     def account(self, pulse):
-        return force_impulse_increments(pulse)
+        """Impulse counters, and ``∫‖F‖₂ dt`` (the force is held over the whole period)."""
+        norm = jnp.sqrt(jnp.sum(pulse.level_nm**2, axis=0)) * pulse.t_off_s[0]
+        return {**force_impulse_increments(pulse), "norm_force_impulse": norm}
 
     def output_specs(self):
-        return force_outputs(self.frame)
+        return {
+            **force_outputs(self.frame),
+            "norm_force_impulse": OutputSpec(
+                (), "N s", "", "cumulative ∫‖F‖₂ dt of the thrusters (the 2-norm fuel measure), from t = 0 to the sample"
+            ),
+        }

@@ -15,3 +15,10 @@ J2_EARTH = 1.08262668e-3
 
 MU_SUN_M3_S2 = 1.32712440e20
 """Sun's gravitational parameter, m³/s² (SPEC §4)."""
+
+AU_M = 149597870700.0
+"""Astronomical unit, m (IAU 2012 Resolution B2, exact)."""
+
+SOLAR_PRESSURE_1AU_N_M2 = 3.828e26 / (4.0 * 3.141592653589793 * AU_M**2 * 299792458.0)
+"""Solar radiation pressure on a perfect absorber at 1 AU, N/m² (about 4.54e-6): the nominal
+solar luminosity 3.828e26 W (IAU 2015 Resolution B3) spread over the 1 AU sphere, over c."""

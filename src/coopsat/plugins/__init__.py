@@ -32,6 +32,7 @@ PLUGIN_MODULES = (
     "coopsat.plugins.wheel_actuators",
     "coopsat.plugins.pid",
     "coopsat.plugins.leader_follower",
+    "coopsat.plugins.formation",
     "coopsat.plugins.networks",
     "coopsat.plugins.disturbances",
     "coopsat.plugins.sensors",

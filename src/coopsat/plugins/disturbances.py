@@ -1,14 +1,15 @@
 """Disturbance plug-ins (``[[disturbances]]``): environment torques and forces.
 
-Gravity gradient (a point-mass field on an extended body) and a seeded random torque; the
-papers' aerodynamic, solar-pressure and residual-dipole terms (SPEC §4, §5) plug in beside
-them.
+Gravity gradient (a point-mass field on an extended body), a seeded random torque, and solar
+radiation pressure on a cannonball (SPEC §4); the aerodynamic and residual-dipole terms of
+SPEC §5 plug in beside them.
 """
 
 from typing import Annotated, Literal
 
 from pydantic import Field
 
+from coopsat.astro.constants import SOLAR_PRESSURE_1AU_N_M2
 from coopsat.plugins import DesignError, Plugin, register
 from coopsat.plugins.tables import MAX_TORQUE_NM, Bounded3, Table
 
@@ -24,6 +25,49 @@ class RandomTorqueTable(Table):
 
     kind: Literal["random-torque"]
     sigma_nm: Annotated[float, Field(ge=0, le=MAX_TORQUE_NM)] | Bounded3(MAX_TORQUE_NM, "N·m") = Field(description="Standard deviation per body axis, N·m (one value or [x, y, z]).")
+
+
+Fraction = Annotated[float, Field(ge=0, le=1)]
+
+
+class SolarRadiationPressureTable(Table):
+    """``kind = "solar-radiation-pressure"``: cannonball SRP, ``F = P₁ (AU/r)² A (1 + reflectivity) r̂``,
+    the Sun being the central body of ``[orbit]``."""
+
+    kind: Literal["solar-radiation-pressure"]
+    area_m2: Annotated[float, Field(gt=0, le=1e6)] | list[Annotated[float, Field(gt=0, le=1e6)]] = Field(
+        description="Effective Sun-facing area, m²: one value, or one per spacecraft in [[spacecraft]] order."
+    )
+    reflectivity: Fraction | list[Fraction] = Field(
+        description="Specular reflectivity, 0 (absorber) … 1 (mirror): one value, or one per spacecraft."
+    )
+    pressure_1au_n_m2: float = Field(
+        SOLAR_PRESSURE_1AU_N_M2, gt=0, le=1.0, description="Pressure on an absorber at 1 AU, N/m² (default 4.54e-6)."
+    )
+
+
+def _per_spacecraft(value, ctx, field):
+    import numpy as np
+
+    v = np.asarray(value, dtype=float)
+    if v.ndim == 1 and v.shape[0] != ctx.n:
+        raise DesignError(f"disturbances.{field}: {v.shape[0]} values given for {ctx.n} spacecraft (give one, or one each)")
+    return np.broadcast_to(v, (ctx.n,)).copy()
+
+
+def _build_srp(table, ctx):
+    from coopsat.astro.constants import AU_M
+    from coopsat.environment.forces import SolarRadiationPressure
+    from coopsat.sim.system import as_arrays
+
+    if ctx.scenario.orbit is None:
+        raise DesignError("disturbances: solar-radiation-pressure needs an [orbit] table with the Sun as central body")
+    missing = [sc.name for sc in ctx.scenario.spacecraft if sc.mass_kg is None]
+    if missing:
+        raise DesignError(f"spacecraft: solar-radiation-pressure acts, so every spacecraft needs mass_kg; missing for {missing}")
+    area = _per_spacecraft(table.area_m2, ctx, "area_m2")
+    refl = _per_spacecraft(table.reflectivity, ctx, "reflectivity")
+    return SolarRadiationPressure(*as_arrays((area, refl, table.pressure_1au_n_m2, AU_M)))
 
 
 def _build_gravity_gradient(table, ctx):
@@ -58,3 +102,4 @@ def _build_random_torque(table, ctx):
 
 register(Plugin("disturbance", "gravity-gradient", GravityGradientTable, _build_gravity_gradient))
 register(Plugin("disturbance", "random-torque", RandomTorqueTable, _build_random_torque))
+register(Plugin("disturbance", "solar-radiation-pressure", SolarRadiationPressureTable, _build_srp))

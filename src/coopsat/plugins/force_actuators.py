@@ -12,7 +12,7 @@ from pydantic import Field, model_validator
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
 from coopsat.plugins.tables import MAX_FORCE_N, Table
 
-_CHANNEL_COMMAND = {"lvlh": "force_lvlh", "body": "force_b"}
+_CHANNEL_COMMAND = {"lvlh": "force_lvlh", "body": "force_b", "inertial": "force_eci"}
 
 
 class ImpulseBitThrusters(Table):
@@ -24,8 +24,10 @@ class ImpulseBitThrusters(Table):
     max_bits_per_period: int | None = Field(
         None, ge=1, description="Most bits per axis and period (default: as many as fit, ⌊T·thrust/bit⌋)."
     )
-    frame: Literal["lvlh", "body"] = Field("lvlh", description="Thruster axes: the chief's LVLH frame, or the body.")
-    command: str | None = Field(None, description="Controller command executed (default force_lvlh / force_b by frame).")
+    frame: Literal["lvlh", "body", "inertial"] = Field(
+        "lvlh", description="Thruster axes: the chief's LVLH frame, the body, or inertial (held fixed in space)."
+    )
+    command: str | None = Field(None, description="Controller command executed (default force_lvlh / force_b / force_eci by frame).")
 
 
 class ProportionalThrusters(Table):
@@ -34,8 +36,10 @@ class ProportionalThrusters(Table):
     kind: Literal["proportional-thrusters"]
     force_min_n: float = Field(1e-3, ge=0, le=MAX_FORCE_N, description="Smallest force per axis, N: smaller commands give none.")
     force_max_n: float = Field(0.1, gt=0, le=MAX_FORCE_N, description="Largest force per axis, N: larger commands are clipped.")
-    frame: Literal["lvlh", "body"] = Field("lvlh", description="Thruster axes: the chief's LVLH frame, or the body.")
-    command: str | None = Field(None, description="Controller command executed (default force_lvlh / force_b by frame).")
+    frame: Literal["lvlh", "body", "inertial"] = Field(
+        "lvlh", description="Thruster axes: the chief's LVLH frame, the body, or inertial (held fixed in space)."
+    )
+    command: str | None = Field(None, description="Controller command executed (default force_lvlh / force_b / force_eci by frame).")
 
     @model_validator(mode="after")
     def _band(self):

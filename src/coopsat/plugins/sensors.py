@@ -1,4 +1,5 @@
-"""Sensors (``[[sensors]]``): star tracker, rate gyro and navigation (position / velocity) noise.
+"""Sensors (``[[sensors]]``): star tracker, rate gyro, navigation (position / velocity) noise and
+relative position between spacecraft.
 
 Each table replaces one quantity the flight software reads by what a sensor measures; a
 quantity no sensor measures is read perfectly. Every sensor may update more slowly than the
@@ -12,7 +13,7 @@ import numpy as np
 from pydantic import Field, PlainValidator
 
 from coopsat.plugins import DesignError, Plugin, register
-from coopsat.plugins.tables import Table, Vec3, whole_ratio
+from coopsat.plugins.tables import Record, Table, Vec3, whole_ratio
 
 
 def _per_axis_sigma(v):
@@ -77,7 +78,20 @@ class VelocityNoise(Table):
     period_s: float | None = _PERIOD
 
 
-_QUANTITY = {"star-tracker": "q", "gyro": "omega", "position-noise": "r_eci", "velocity-noise": "v_eci"}
+class RelativePosition(Table):
+    """``kind = "relative-position"``: each spacecraft measures the vector to every other in sight (needs ``[orbit]``)."""
+
+    kind: Literal["relative-position"]
+    sigma_m: PerAxis = Field(0.0, description="Standard deviation of each measured vector per inertial axis, m.")
+    blocked: list[Record(str, str, float, float)] = Field(
+        [], description="Blocked lines of sight: [spacecraft, spacecraft, t_start_s, t_end_s], both directions, for t in [start, end)."
+    )
+    period_s: float | None = _PERIOD
+
+
+_QUANTITY = {
+    "star-tracker": "q", "gyro": "omega", "position-noise": "r_eci", "velocity-noise": "v_eci", "relative-position": "rho",
+}
 """The measured quantity each kind replaces."""
 
 
@@ -98,7 +112,7 @@ def _every(table, ctx):
             raise DesignError(
                 f"{where}: measures {quantity} like sensors[{k}]; give one sensor per measured quantity"
             )
-    if quantity in ("r_eci", "v_eci") and ctx.scenario.orbit is None:
+    if quantity in ("r_eci", "v_eci", "rho") and ctx.scenario.orbit is None:
         raise DesignError(
             f'{where}: kind = "{table.kind}" measures {quantity}, which needs an [orbit] table (this run is attitude only)'
         )
@@ -145,7 +159,31 @@ def _build_navigation(table, ctx):
     return Part(*as_arrays((_per_axis(sigma),)), quantity=_QUANTITY[table.kind], every=every)
 
 
+def _build_relative(table, ctx):
+    from coopsat.sensors.parts import RelativePosition as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    where = _place(table, ctx)
+    pairs, windows = [], []
+    for k, (a, b, t0, t1) in enumerate(table.blocked):
+        for name in (a, b):
+            if name not in ctx.names:
+                raise DesignError(f"{where}.blocked[{k}]: unknown spacecraft '{name}' (known: {', '.join(ctx.names)})")
+        if a == b:
+            raise DesignError(f"{where}.blocked[{k}]: a line of sight joins two different spacecraft, got {a} twice")
+        if not 0.0 <= t0 < t1:
+            raise DesignError(f"{where}.blocked[{k}]: needs 0 <= t_start_s < t_end_s, got [{t0:g}, {t1:g}]")
+        pairs.append((ctx.names.index(a), ctx.names.index(b)))
+        windows.append((t0, t1))
+    if not pairs:  # a window that never opens keeps the arrays' shapes fixed
+        pairs, windows = [(0, 0)], [(0.0, 0.0)]
+    arrays = (_per_axis(table.sigma_m), np.asarray(pairs, dtype=np.int32), np.asarray(windows, dtype=float), ctx.period_s)
+    return Part(*as_arrays(arrays), names=tuple(ctx.names), every=every)
+
+
 register(Plugin("sensor", "star-tracker", StarTracker, _build_star_tracker))
 register(Plugin("sensor", "gyro", Gyro, _build_gyro))
 register(Plugin("sensor", "position-noise", PositionNoise, _build_navigation))
 register(Plugin("sensor", "velocity-noise", VelocityNoise, _build_navigation))
+register(Plugin("sensor", "relative-position", RelativePosition, _build_relative))

@@ -167,13 +167,14 @@ def _run_check(check, table, ctx, place):
 
 
 def _check_sensed_quantities(scenario, sensors, actuators):
-    """Every sensor measures a quantity the run's models have."""
+    """Every sensor measures a quantity the run's models have (a sensor that derives its
+    quantity from the state, ``derive``, checks its own needs when it is built)."""
     from coopsat.dynamics.plant import state_quantities
 
     gravity = "none" if scenario.orbit is None else scenario.orbit.gravity
     have = set(state_quantities(scenario.sim.attitude, gravity, (a.channel for a in actuators)))
     for k, s in enumerate(sensors):
-        if s.quantity not in have:
+        if s.quantity not in have and not hasattr(s, "derive"):
             raise ScenarioError(
                 f"sensors[{k}]: measures '{s.quantity}', which this run does not have "
                 f"(sim.attitude = {scenario.sim.attitude!r}; quantities: {', '.join(sorted(have))})"

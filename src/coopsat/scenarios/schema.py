@@ -253,6 +253,9 @@ class Analysis(Table):
         0.1, gt=0, le=MAX_RATE_RAD_S,
         description="Spin-down: the excess rate along the initial spin axis counts as removed below this, rad/s.",
     )
+    formation_tolerance_m: float = Field(
+        1.0, gt=0, le=MAX_DISTANCE_M, description="Formation error (translation removed) that counts as settled, m."
+    )
     settle_hold_s: float = Field(
         10.0, ge=0, le=MAX_TIME_S, description="A settle time counts only if the condition has held this long by the end of the run, s."
     )

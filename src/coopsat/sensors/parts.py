@@ -1,10 +1,12 @@
-"""In-loop sensor parts: star tracker, rate gyro and navigation (position / velocity) noise.
+"""In-loop sensor parts: star tracker, rate gyro, navigation (position / velocity) noise, and
+relative position.
 
 Each part replaces one quantity of the measurement dictionary the controller sees (the engine's
 sensor protocol, docs/architecture.md §4):
 
 * ``quantity`` (class attribute, or a static field): the key it replaces, ``"q"`` (4, n),
-  ``"omega"`` (3, n), ``"r_eci"`` or ``"v_eci"`` (3, n);
+  ``"omega"`` (3, n), ``"r_eci"`` or ``"v_eci"`` (3, n); or a quantity the sensor derives from
+  the plant state with ``derive(x)`` (``"rho"``, the relative positions, (4, n, n));
 * ``every`` (static int ≥ 1): the reading updates every ``every`` control periods and is held
   in between (the engine holds it; ``measure`` is still called every period, so a state such
   as the gyro bias advances every control period);
@@ -19,8 +21,8 @@ from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 
-from coopsat._parts import part
-from coopsat.sensors.noise import gyro_bias_step, gyro_measure, star_tracker_measure, white_noise
+from coopsat._parts import OutputSpec, part
+from coopsat.sensors.noise import gyro_bias_step, gyro_measure, per_spacecraft_normal, star_tracker_measure, white_noise
 
 
 @part(static=("every",))
@@ -129,3 +131,94 @@ class NavigationNoise:
 
     def output_specs(self):
         return {}
+
+
+def relative_positions(r_eci):
+    """Every spacecraft's view of every other: ``rho[:, j, i] = r_j − r_i``, m.
+
+    Parameters
+    ----------
+    r_eci : (3, n)
+        Positions, component-major.
+
+    Returns
+    -------
+    jax.Array, (3, n, n)
+        Component, target j, observer i (the observer last, as every per-spacecraft array in
+        the loop).
+    """
+    return r_eci[:, :, None] - r_eci[:, None, :]
+
+
+@part(static=("names", "every"))
+class RelativePosition:
+    """Relative-position sensor (SPEC §4): each spacecraft measures the vector to every other
+    it has a line of sight to, in inertial axes, with white noise; no absolute position.
+
+    The reading is ``(4, n, n)``: rows x, y, z (m) and ``valid`` (1 when the line of sight is
+    open, else 0, with the vector zeroed), target j, observer i. A line of sight is blocked in
+    both directions during each of its windows ``[t_start, t_end)``.
+
+    Attributes
+    ----------
+    sigma_m : (3,)
+        Standard deviation per inertial axis, m (each observer draws its own noise).
+    blocked_pairs : int (B, 2)
+        Spacecraft indices of each blocked line of sight (B ≥ 1; a dummy window that never
+        opens when none is blocked).
+    blocked_windows_s : (B, 2)
+        Start and end of each blockage, s.
+    step_s : scalar
+        Time between two calls of ``measure`` (the control period), s.
+    names : tuple of str
+        Static: spacecraft names (the ``target`` coordinate of the recorded reading).
+    every : int
+        Static: control periods between updates.
+
+    Notes
+    -----
+    The sensor's state is the time of its next reading, s: it advances ``step_s`` per call.
+    """
+
+    sigma_m: jnp.ndarray
+    blocked_pairs: jnp.ndarray
+    blocked_windows_s: jnp.ndarray
+    step_s: jnp.ndarray
+    names: tuple = ()
+    every: int = 1
+
+    quantity = "rho"
+
+    def derive(self, x):
+        n = x.r_eci.shape[-1]
+        return jnp.concatenate([relative_positions(x.r_eci), jnp.ones((1, n, n))], axis=0)
+
+    def init(self, truth_value, n):
+        return jnp.zeros(())
+
+    def open_lines(self, t_s, n):
+        """(n, n) 1.0 where the line of sight between j and i is open at ``t_s``, else 0.0."""
+        a, b = self.blocked_pairs[:, 0], self.blocked_pairs[:, 1]
+        active = (t_s >= self.blocked_windows_s[:, 0]) & (t_s < self.blocked_windows_s[:, 1])
+        hit = jnp.zeros((n, n)).at[a, b].max(active.astype(float)).at[b, a].max(active.astype(float))
+        return 1.0 - hit
+
+    def measure(self, truth_value, x, state, key):
+        """The noisy vectors where the line of sight is open, (4, n, n), and the next time."""
+        n = truth_value.shape[-1]
+        noise = per_spacecraft_normal(key, 3 * n, n).reshape(3, n, n) * self.sigma_m[:, None, None]
+        # A spacecraft knows its own position relative to itself exactly.
+        noise = noise * (1.0 - jnp.eye(n))
+        valid = self.open_lines(state, n)
+        rho = (truth_value[:3] + noise) * valid
+        return jnp.concatenate([rho, valid[None]], axis=0), state + self.step_s
+
+    def output_specs(self):
+        return {
+            "measured_rho": OutputSpec(
+                ("rel_component", "target"), "m", "ECI",
+                "relative position of each target as measured by the spacecraft (r_target - r_spacecraft), "
+                "and whether its line of sight was open (valid, 1/0), at the sample",
+                coords=(("rel_component", ("x", "y", "z", "valid")), ("target", self.names)),
+            )
+        }

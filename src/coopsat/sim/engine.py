@@ -38,6 +38,7 @@ import numpy as np
 from coopsat.actuators.pulses import torque_between
 from coopsat.dynamics.plant import STATE_QUANTITIES, plant_derivative, state_quantities
 from coopsat.geometry.quaternion import quat_normalize
+from coopsat.sim.flight_software import as_flight_software
 
 
 class NonFiniteStateError(RuntimeError):
@@ -175,13 +176,19 @@ def _truth(system, x):
     return {q: getattr(x, STATE_QUANTITIES[q][0]) for q in _quantities(system)}
 
 
+def _sensor_truth(s, y, x):
+    """The true value of what a sensor reads: a state quantity, or one it derives from the
+    state (``derive(x)``: e.g. the relative positions a spacecraft sees)."""
+    return y[s.quantity] if s.quantity in y else s.derive(x)
+
+
 def _sense(system, x, st, frame, key):
     """Measurements of every spacecraft: the truth, with each sensor's quantity replaced by
     what the sensor reads (held between its updates)."""
     y = _truth(system, x)
     states, held = [], []
     for j, (s, s_state, s_held) in enumerate(zip(system.sensors, st["sensors"], st["held"])):
-        value, s_state = s.measure(y[s.quantity], x, s_state, jax.random.fold_in(key, _KEY_SENSORS + j))
+        value, s_state = s.measure(_sensor_truth(s, y, x), x, s_state, jax.random.fold_in(key, _KEY_SENSORS + j))
         if s.every > 1:
             value = jnp.where(frame % s.every == 0, value, s_held)
         y[s.quantity] = value
@@ -203,7 +210,7 @@ def _command(system, x, st, tick):
     key = jax.random.fold_in(system.key, frame)
     y, st = _sense(system, x, st, frame, key)
     measured = {f"measured_{s.quantity}": y[s.quantity] for s in system.sensors}
-    ctrl = system.controller
+    ctrl = as_flight_software(system.controller, system.structure.n_spacecraft)
     outbox = ctrl.outbox(y, st["controller"])
     inbox, net_state, net_record = system.network.deliver(
         tick, outbox, st["network"], jax.random.fold_in(key, _KEY_NETWORK)
@@ -321,14 +328,14 @@ def _initial_carry(system):
     truth = _truth(system_cm, x0)
     st = {
         "controller": system.controller.init(n),
-        "sensors": tuple(s.init(truth[s.quantity], n) for s in system.sensors),
-        "held": tuple(truth[s.quantity] for s in system.sensors),
+        "sensors": tuple(s.init(_sensor_truth(s, truth, x0), n) for s in system.sensors),
+        "held": tuple(_sensor_truth(s, truth, x0) for s in system.sensors),
         "actuators": tuple(a.init(n) for a in system.actuators),
         "disturbances": tuple(d.init(n) for d in system.disturbances),
         "network": (),
     }
     y0, _ = _sense(system_cm, x0, st, 0, jax.random.fold_in(system.key, 0))
-    st["network"] = system.network.init(system.controller.outbox(y0, st["controller"]))
+    st["network"] = system.network.init(as_flight_software(system.controller, n).outbox(y0, st["controller"]))
     zeros = jax.eval_shape(
         lambda: _account(system_cm, tuple(a.plan(jnp.zeros_like(x0.omega_b), x0, s, system_cm.period_s, system.key)[0]
                                           for a, s in zip(system_cm.actuators, st["actuators"])))
@@ -347,7 +354,8 @@ def output_specs(system):
     from coopsat.sim.outputs import measured_output_spec, state_output_specs
 
     specs = state_output_specs(_quantities(system))
-    specs.update({f"measured_{s.quantity}": measured_output_spec(s.quantity) for s in system.sensors})
+    # A sensor of a derived quantity describes its own reading (in its output_specs).
+    specs.update({f"measured_{s.quantity}": measured_output_spec(s.quantity) for s in system.sensors if s.quantity in STATE_QUANTITIES})
     for p in (system.controller, system.network, *system.sensors, *system.actuators, *system.disturbances):
         specs.update(p.output_specs())
     return specs

@@ -5,7 +5,9 @@ A plug-in names its paper's module (:attr:`coopsat.plugins.Plugin.analysis`); a 
 modules of the plug-ins it uses. A module provides
 
 * ``metrics(ds, built) -> dict`` — named numbers (unit at the end of each name);
-* ``EXPLAINERS`` — ``{metric name or "_suffix": (quantity, metrics) -> str or None}``.
+* ``EXPLAINERS`` — ``{metric name or "_suffix": (quantity, metrics) -> str or None}``;
+* optionally ``FIGURES`` — the name of a :mod:`coopsat.plots` module whose ``figures(ds,
+  built) -> {stem: Figure}`` draws the paper's figures (plots sit above analysis).
 
 So :mod:`coopsat.analysis.metrics` and :mod:`coopsat.analysis.compare` stay generic as papers
 are added.

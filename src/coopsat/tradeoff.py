@@ -1,0 +1,180 @@
+"""``coopsat tradeoff``: fuel against settling time for formation designs, swept over their
+weight and compared at matched settling time (SPEC §4).
+
+For every scenario given and every set of relative coordinates asked for, the controller's
+Bryson force scale (``controller.force_scale_n``, the weight that trades speed for fuel) is
+swept; the runs of one series share a structure and run as one vmapped batch. Each run's
+settling time and fuel come from the paper module's metrics on the exact closed loop (dead
+zone, saturation, noise, solar pressure), so the fronts are the tool's honest figures, not a
+linear model's. Designs are compared by the fuel of their Pareto fronts at the same settling
+time (:func:`coopsat.analysis.tradeoff.matched_saving`).
+"""
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from coopsat.analysis.tradeoff import matched_saving, pareto_front
+
+DEFAULT_SCALES_N = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
+"""Force scales swept by default, N (Bryson's acceptable force per axis)."""
+
+PUBLISHED_SAVING_PERCENT = 10.6
+"""The paper's fuel saving of the decentralized LMI design against Riccati-LQR (§4.2)."""
+
+
+class TradeoffError(ValueError):
+    """A trade-off that cannot be run as asked (one line)."""
+
+
+def sweep(ref, scales_n, coordinates, progress=False):
+    """Run one series: a scenario in one set of coordinates at every force scale.
+
+    Returns
+    -------
+    list of dict
+        Per run: ``scenario``, ``design``, ``coordinates``, ``force_scale_n`` and the run's
+        metrics (``settling_time_s``, ``fuel_l1_ns``, ``fuel_l2_ns``, …).
+    """
+    from coopsat.pipeline import analyse, prepare
+    from coopsat.scenarios.load import load_scenario
+    from coopsat.sim.engine import RunOutput, output_specs, simulate
+    from coopsat.sim.recorder import to_dataset
+    from coopsat.sim.system import stack_systems
+
+    builds = []
+    for s in scales_n:
+        scenario = load_scenario(ref, [f"controller.force_scale_n={s!r}", f"controller.coordinates={coordinates!r}"])
+        if scenario.controller.kind != "formation-observer":
+            raise TradeoffError(f"{ref}: tradeoff sweeps a formation-observer controller, this one is {scenario.controller.kind}")
+        builds.append(prepare(scenario))
+    first = builds[0]
+    out = simulate(stack_systems([b.system for b in builds]), first.n_records, first.record_interval_s, batched=True, progress=progress)
+    specs = output_specs(first.system)
+    rows = []
+    for k, (s, built) in enumerate(zip(scales_n, builds)):
+        one = RunOutput(out.t_s, {name: v[k] for name, v in out.samples.items()}, 0.0, 0.0)
+        ds = to_dataset(one, built.names, {"scenario_name": built.scenario.name}, specs)
+        metrics, _ = analyse(built, ds, compare=False)
+        c = built.scenario.controller
+        rows.append({"scenario": built.scenario.name, "design": c.design, "coordinates": coordinates, "force_scale_n": float(s), **metrics})
+    return rows, out.compile_s, out.run_s
+
+
+def _finite(v):
+    return np.nan if v is None else float(v)
+
+
+def compare(rows, fuel="fuel_l1_ns"):
+    """LMI against LQR at matched settling time, per set of coordinates.
+
+    Returns
+    -------
+    list of dict
+        ``coordinates``, ``lmi``/``lqr`` scenario names, and the fields of
+        :func:`~coopsat.analysis.tradeoff.matched_saving` (as lists).
+    """
+    out = []
+    for coords in dict.fromkeys(r["coordinates"] for r in rows):
+        by = {d: [r for r in rows if r["coordinates"] == coords and r["design"] == d] for d in ("lmi", "lqr")}
+        if not by["lmi"] or not by["lqr"]:
+            continue
+        a = [(_finite(r["settling_time_s"]), _finite(r.get(fuel))) for r in by["lmi"]]
+        b = [(_finite(r["settling_time_s"]), _finite(r.get(fuel))) for r in by["lqr"]]
+        m = matched_saving(*zip(*a), *zip(*b))
+        out.append({"coordinates": coords, "fuel": fuel, **{k: (list(map(float, v)) if isinstance(v, np.ndarray) else v) for k, v in m.items()}})
+    return out
+
+
+def comparison_markdown(rows, comparisons):
+    """The verdict on the paper's 10.6 % fuel saving, from the matched comparison."""
+    lines = [
+        "# Fuel against settling time: LMI (decentralized) vs Riccati-LQR",
+        "",
+        f"Published (SPEC §4, §4.2 of the paper): the LMI design saves about {PUBLISHED_SAVING_PERCENT} % fuel against "
+        "Riccati-LQR. Here each design is swept over its force weight and compared on its Pareto front at the same "
+        "settling time (formation error within the scenario's tolerance to the end of the run).",
+        "",
+    ]
+    for c in comparisons:
+        lines.append(f"## {c['coordinates']} coordinates ({c['fuel']})")
+        if c["overlap_s"] is None:
+            lines += ["", "The fronts do not overlap in settling time: no matched comparison.", ""]
+            continue
+        lines += ["", "| settling time (s) | LMI fuel (N s) | LQR fuel (N s) | LMI saving (%) |", "|---|---|---|---|"]
+        for s, fa, fb, p in zip(c["settle_s"], c["fuel_a"], c["fuel_b"], c["saving_percent"]):
+            lines.append(f"| {s:.0f} | {fa:.4g} | {fb:.4g} | {p:+.2f} |")
+        median = float(np.median(c["saving_percent"]))
+        verdict = "agrees" if abs(median - PUBLISHED_SAVING_PERCENT) <= 3.0 else "differs"
+        lines += [
+            "",
+            f"Median saving over the overlap {c['overlap_s'][0]:.0f}–{c['overlap_s'][1]:.0f} s: {median:+.2f} % "
+            f"(published {PUBLISHED_SAVING_PERCENT} %): **{verdict}**.",
+            "",
+        ]
+    lines += [
+        "Why: on the same quadratic cost and coordinates the LMI's best is the Riccati gain (min trace returns it; "
+        "min γ bounds the worst case over the initial-error ball and leaves the gain free among many optima), so a "
+        "saving can come only from the coordinates (hub vs orthonormal weights are different costs), the thrust dead "
+        "zone and limit, the observer, or the decentralization — not from the LMI itself. Unmatched pairs (one tuned "
+        "point each) make any saving appear by choosing a slower design.",
+        "",
+        "| series | force scale (N) | settling time (s) | fuel L1 (N s) | fuel 2-norm (N s) | final error (m) | on front |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for key in dict.fromkeys((r["scenario"], r["coordinates"]) for r in rows):
+        series = [r for r in rows if (r["scenario"], r["coordinates"]) == key]
+        front = set(pareto_front([_finite(r["settling_time_s"]) for r in series], [_finite(r.get("fuel_l1_ns")) for r in series]))
+        for k, r in enumerate(series):
+            settle = "never" if r["settling_time_s"] is None else f"{r['settling_time_s']:.0f}"
+            lines.append(
+                f"| {key[0]} ({key[1]}) | {r['force_scale_n']:g} | {settle} | {r.get('fuel_l1_ns', float('nan')):.4g} | "
+                f"{r.get('fuel_l2_ns', float('nan')):.4g} | {r['formation_error_final_m']:.3g} | {'yes' if k in front else ''} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def run_tradeoff(refs, out_dir, scales_n=DEFAULT_SCALES_N, coordinates=("hub", "orthonormal"), progress=False, figures=True):
+    """Sweep every scenario in every coordinates, compare, and write the folder.
+
+    Writes ``tradeoff.json`` (every run's metrics and the comparisons), ``comparison.md`` and,
+    with ``figures``, ``tradeoff.png``; atomically (nothing half-written on failure).
+
+    Returns
+    -------
+    (rows, comparisons, compile_s, run_s)
+    """
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not (out_dir / "tradeoff.json").is_file():
+        raise TradeoffError(f"--out {out_dir}: exists and is not a tradeoff folder; choose another folder or remove it")
+    if not scales_n or any(not (s > 0) for s in scales_n):
+        raise TradeoffError(f"--scales: force scales must be positive numbers, got {list(scales_n)}")
+    rows, compile_s, run_s = [], 0.0, 0.0
+    for ref in refs:
+        for coords in coordinates:
+            r, c, t = sweep(ref, list(scales_n), coords, progress)
+            rows += r
+            compile_s += c
+            run_s += t
+    comparisons = compare(rows)
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+    try:
+        (tmp / "tradeoff.json").write_text(
+            json.dumps({"runs": rows, "comparisons": comparisons}, indent=2, default=lambda v: None) + "\n"
+        )
+        (tmp / "comparison.md").write_text(comparison_markdown(rows, comparisons))
+        if figures:
+            from coopsat.plots.formation import tradeoff_figure
+
+            tradeoff_figure(rows, comparisons).savefig(tmp / "tradeoff.png", dpi=120)
+        if out_dir.exists():
+            shutil.rmtree(out_dir)
+        tmp.rename(out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return rows, comparisons, compile_s, run_s

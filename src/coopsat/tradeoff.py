@@ -35,9 +35,11 @@ def sweep(ref, scales_n, coordinates, progress=False):
 
     Returns
     -------
-    list of dict
-        Per run: ``scenario``, ``design``, ``coordinates``, ``force_scale_n`` and the run's
-        metrics (``settling_time_s``, ``fuel_l1_ns``, ``fuel_l2_ns``, …).
+    (rows, histories, compile_s, run_s)
+        ``rows``: per run, ``scenario``, ``design``, ``coordinates``, ``force_scale_n`` and the
+        run's metrics (``settling_time_s``, ``fuel_l1_ns``, ``fuel_l2_ns``, …);
+        ``histories``: per run, ``t_s`` and the cumulative fuel against time (``fuel_l1_ns``
+        (T, 3) per axis, ``fuel_l2_ns`` (T,)).
     """
     from coopsat.pipeline import analyse, prepare
     from coopsat.scenarios.load import load_scenario
@@ -55,14 +57,19 @@ def sweep(ref, scales_n, coordinates, progress=False):
     first = builds[0]
     out = simulate(stack_systems([b.system for b in builds]), first.n_records, first.record_interval_s, batched=True, progress=progress)
     specs = output_specs(first.system)
-    rows = []
+    rows, histories = [], []
     for k, (s, built) in enumerate(zip(scales_n, builds)):
         one = RunOutput(out.t_s, {name: v[k] for name, v in out.samples.items()}, 0.0, 0.0)
         ds = to_dataset(one, built.names, {"scenario_name": built.scenario.name}, specs)
         metrics, _ = analyse(built, ds, compare=False)
         c = built.scenario.controller
         rows.append({"scenario": built.scenario.name, "design": c.design, "coordinates": coordinates, "force_scale_n": float(s), **metrics})
-    return rows, out.compile_s, out.run_s
+        histories.append({
+            "t_s": ds["time"].values,
+            "fuel_l1_ns": ds["abs_force_impulse"].values.sum(axis=1),  # (T, 3) per axis
+            "fuel_l2_ns": ds["norm_force_impulse"].values.sum(axis=1) if "norm_force_impulse" in ds else None,
+        })
+    return rows, histories, out.compile_s, out.run_s
 
 
 def _finite(v):
@@ -153,7 +160,8 @@ def run_tradeoff(refs, out_dir, scales_n=DEFAULT_SCALES_N, coordinates=("hub", "
     """Sweep every scenario in every coordinates, compare, and write the folder.
 
     Writes ``tradeoff.json`` (every run's metrics and the comparisons), ``comparison.md`` and,
-    with ``figures``, ``tradeoff.png``; atomically (nothing half-written on failure).
+    with ``figures``, ``tradeoff.png`` and ``fuel_time.png`` (fuel against time of every series
+    at the sweep's middle force scale, Fig. 5); atomically (nothing half-written on failure).
 
     Returns
     -------
@@ -164,10 +172,12 @@ def run_tradeoff(refs, out_dir, scales_n=DEFAULT_SCALES_N, coordinates=("hub", "
         raise TradeoffError(f"--out {out_dir}: exists and is not a tradeoff folder; choose another folder or remove it")
     if not scales_n or any(not (s > 0) for s in scales_n):
         raise TradeoffError(f"--scales: force scales must be positive numbers, got {list(scales_n)}")
-    rows, compile_s, run_s = [], 0.0, 0.0
+    rows, middle, compile_s, run_s = [], [], 0.0, 0.0
     for ref in refs:
         for coords in coordinates:
-            r, c, t = sweep(ref, list(scales_n), coords, progress)
+            r, h, c, t = sweep(ref, list(scales_n), coords, progress)
+            k = len(r) // 2
+            middle.append((r[k], h[k]))
             rows += r
             compile_s += c
             run_s += t
@@ -180,9 +190,10 @@ def run_tradeoff(refs, out_dir, scales_n=DEFAULT_SCALES_N, coordinates=("hub", "
         )
         (tmp / "comparison.md").write_text(comparison_markdown(rows, comparisons))
         if figures:
-            from coopsat.plots.formation import tradeoff_figure
+            from coopsat.plots.formation import fuel_time_figure, tradeoff_figure
 
             tradeoff_figure(rows, comparisons).savefig(tmp / "tradeoff.png", dpi=120)
+            fuel_time_figure(middle).savefig(tmp / "fuel_time.png", dpi=120)
         if out_dir.exists():
             shutil.rmtree(out_dir)
         tmp.rename(out_dir)

@@ -126,8 +126,20 @@ def test_tradeoff_writes_fronts_and_the_matched_comparison(capsys, tmp_path):
     status = main(["tradeoff", LMI, LQR, "--scales", "0.05,0.1,0.2", "--coordinates", "orthonormal", "--out", str(out), "-q"])
     assert status == 0
     data = json.loads((out / "tradeoff.json").read_text())
-    assert len(data["runs"]) == 6 and (out / "tradeoff.png").is_file()
+    assert len(data["runs"]) == 6 and (out / "tradeoff.png").is_file() and (out / "fuel_time.png").is_file()
     (c,) = data["comparisons"]
     # In orthonormal coordinates min γ lands on the Riccati gain: the two designs fly alike.
     assert c["overlap_s"] is not None and max(abs(p) for p in c["saving_percent"]) < 0.5
     assert "verdict on 10.6 %" in (out / "comparison.md").read_text()
+
+
+@pytest.mark.slow
+def test_full_tradeoff_reproduces_the_verdict_on_the_published_saving(tmp_path):
+    """The default sweep of both designs in both coordinates (docs/papers/deep-space-2008.md)."""
+    from coopsat.tradeoff import run_tradeoff
+
+    _, comparisons, _, _ = run_tradeoff([LMI, LQR], tmp_path / "t")
+    by = {(c["lmi"], c["lqr"]): np.median(c["saving_percent"]) for c in comparisons if c["overlap_s"]}
+    assert by[("hub", "hub")] < 0.0  # posed as the paper reads it, the LMI spends more
+    assert abs(by[("orthonormal", "orthonormal")]) < 1.0  # min γ lands on the Riccati gain
+    assert by[("orthonormal", "hub")] > 10.6  # a saving appears only across coordinates

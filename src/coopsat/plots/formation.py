@@ -113,3 +113,30 @@ def tradeoff_figure(rows, comparisons, fuel="fuel_l1_ns"):
     ax.legend(fontsize="small")
     ax.set_title("fuel against settling time; lines: each series' Pareto front")
     return fig
+
+
+def fuel_time_figure(series):
+    """Fuel against time of several runs on one figure (Fig. 5 for both designs): per run the
+    L1 total (solid) and the 2-norm reading (dashed), and per axis (thin).
+
+    Parameters
+    ----------
+    series : list of (row, history)
+        ``row`` as in :func:`coopsat.tradeoff.sweep` (design, coordinates, force scale);
+        ``history`` with ``t_s``, ``fuel_l1_ns`` (T, 3) and ``fuel_l2_ns`` (T,) or None.
+    """
+    fig = Figure(figsize=(7.5, 4.8), layout="constrained")
+    ax = fig.add_subplot()
+    for row, h in series:
+        label = f"{row['design'].upper()} {row['coordinates']} ({row['force_scale_n']:g} N)"
+        line = ax.plot(h["t_s"], h["fuel_l1_ns"].sum(axis=1), lw=2, label=f"{label}: L1")[0]
+        for c in range(3):
+            if np.any(h["fuel_l1_ns"][:, c] > 0):
+                ax.plot(h["t_s"], h["fuel_l1_ns"][:, c], lw=0.7, color=line.get_color())
+        if h["fuel_l2_ns"] is not None:
+            ax.plot(h["t_s"], h["fuel_l2_ns"], "--", color=line.get_color(), label=f"{label}: 2-norm")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("fuel Σ∫|u| dt (N s); thin: per axis")
+    ax.legend(fontsize="x-small")
+    ax.set_title("fuel against time")
+    return fig

@@ -106,19 +106,13 @@ def _thruster_model(ctx):
 
 
 _DESIGNS = {}
-"""Designs of this process by (table, period, positions, force scale): the builder and the
-design check share one solve."""
+"""Designs of this process by (scenario, force scale): the builder and the design check share
+one solve."""
 
 
 def design(table, ctx, force_scale_n=None):
     """Memoised :func:`_design` (same arguments and result)."""
-    import numpy as np
-
-    key = (
-        table.model_dump_json(), ctx.period_s, tuple(ctx.names), force_scale_n,
-        np.asarray([s.r_eci_m for s in ctx.scenario.spacecraft], dtype=float).tobytes(),
-        repr(ctx.scenario.actuators),
-    )
+    key = (ctx.scenario.model_dump_json(), force_scale_n)  # the whole scenario: masses, sensors, actuators…
     if key not in _DESIGNS:
         if len(_DESIGNS) > 64:
             _DESIGNS.clear()

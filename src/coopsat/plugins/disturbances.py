@@ -58,13 +58,10 @@ def _per_spacecraft(value, ctx, field):
 def _build_srp(table, ctx):
     from coopsat.astro.constants import AU_M
     from coopsat.environment.forces import SolarRadiationPressure
+    from coopsat.plugins.force_actuators import require_translation
     from coopsat.sim.system import as_arrays
 
-    if ctx.scenario.orbit is None:
-        raise DesignError("disturbances: solar-radiation-pressure needs an [orbit] table with the Sun as central body")
-    missing = [sc.name for sc in ctx.scenario.spacecraft if sc.mass_kg is None]
-    if missing:
-        raise DesignError(f"spacecraft: solar-radiation-pressure acts, so every spacecraft needs mass_kg; missing for {missing}")
+    require_translation(ctx, "disturbances", "solar-radiation-pressure (the Sun as central body)")
     area = _per_spacecraft(table.area_m2, ctx, "area_m2")
     refl = _per_spacecraft(table.reflectivity, ctx, "reflectivity")
     return SolarRadiationPressure(*as_arrays((area, refl, table.pressure_1au_n_m2, AU_M)))

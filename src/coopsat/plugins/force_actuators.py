@@ -77,13 +77,24 @@ def max_bits(table, period_s):
     return table.max_bits_per_period
 
 
-def check_translation(table, ctx):
-    """A force needs the translational truth model and every spacecraft's mass."""
+def require_translation(ctx, place="actuators", who="a force actuator"):
+    """A force needs the translational truth model and every spacecraft's mass.
+
+    Raises
+    ------
+    DesignError
+        Naming ``place`` and ``who`` (the part that needs them).
+    """
     if ctx.scenario.orbit is None:
-        raise DesignError("actuators: a force actuator needs an [orbit] table (the translational truth model)")
+        raise DesignError(f"{place}: {who} needs an [orbit] table (the translational truth model)")
     missing = [sc.name for sc in ctx.scenario.spacecraft if sc.mass_kg is None]
     if missing:
         raise DesignError(f"spacecraft: a force acts, so every spacecraft needs mass_kg; missing for {missing}")
+
+
+def check_translation(table, ctx):
+    """The force actuators' check: :func:`require_translation`."""
+    require_translation(ctx)
 
 
 def _build_bits(table, ctx):

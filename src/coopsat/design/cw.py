@@ -1,0 +1,136 @@
+"""Clohessy–Wiltshire relative motion in the chief's LVLH frame (SPEC §2): the design model of
+the cartwheel formation.
+
+Frame (one definition, :mod:`coopsat.geometry.frames`): x along-track, y along the negative
+orbit normal, z toward the Earth's centre. State ``[x, y, z, ẋ, ẏ, ż]`` (m, m/s), input the
+specific force ``f`` (m/s², force over mass), chief on a circular orbit of mean motion n:
+
+    ẍ − 2n ż = f_x,     ÿ + n² y = f_y,     z̈ + 2n ẋ − 3n² z = f_z.
+
+The space circular formation ("cartwheel") of radius ρ, tilted 30° from the local horizontal:
+``x = ρ cos θ``, ``y = (√3/2) ρ sin θ``, ``z = −(ρ/2) sin θ``, ``θ = n t + φ``: an exact,
+bounded solution of the unforced equations with ``|r| = ρ`` at all times.
+"""
+
+import numpy as np
+from scipy.linalg import solve_discrete_are
+
+from coopsat.design.formation import discretize
+
+#: From the classical Hill frame (x_H radial out, y_H along-track, z_H orbit normal) to ours:
+#: x = y_H, y = −z_H, z = −x_H (positions; velocities alike).
+_HILL_TO_LVLH = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0]])
+
+
+def cw_matrices(n_rad_s):
+    """State and input matrices of the CW equations in our LVLH axes.
+
+    Parameters
+    ----------
+    n_rad_s : float
+        Mean motion of the chief's circular orbit, rad/s.
+
+    Returns
+    -------
+    a : ndarray (6, 6), 1/s and 1/s²
+    b : ndarray (6, 3)
+        Input: specific force, m/s².
+    """
+    n = float(n_rad_s)
+    a = np.zeros((6, 6))
+    a[:3, 3:] = np.eye(3)
+    a[3, 5] = 2.0 * n  # ẍ = 2n ż
+    a[4, 1] = -n * n  # ÿ = −n² y
+    a[5, 3] = -2.0 * n  # z̈ = −2n ẋ + 3n² z
+    a[5, 2] = 3.0 * n * n
+    b = np.vstack([np.zeros((3, 3)), np.eye(3)])
+    return a, b
+
+
+def cw_stm(n_rad_s, t_s):
+    """Closed-form state-transition matrix Φ(t) of the unforced CW equations, our LVLH axes.
+
+    Returns
+    -------
+    ndarray (6, 6)
+
+    Notes
+    -----
+    The classical Hill-frame solution (e.g. Vallado, *Fundamentals of Astrodynamics*, 4th ed.,
+    §6.8, eq. 6-66), rotated into our axes by the fixed permutation with signs
+    ``x = y_H, y = −z_H, z = −x_H``.
+    """
+    n, t = float(n_rad_s), float(t_s)
+    s, c, nt = np.sin(n * t), np.cos(n * t), n * t
+    # Hill frame: [x_H, y_H, z_H, ẋ_H, ẏ_H, ż_H].
+    phi_h = np.array([
+        [4 - 3 * c, 0, 0, s / n, 2 * (1 - c) / n, 0],
+        [6 * (s - nt), 1, 0, -2 * (1 - c) / n, (4 * s - 3 * nt) / n, 0],
+        [0, 0, c, 0, 0, s / n],
+        [3 * n * s, 0, 0, c, 2 * s, 0],
+        [-6 * n * (1 - c), 0, 0, -2 * s, 4 * c - 3, 0],
+        [0, 0, -n * s, 0, 0, c],
+    ])
+    m = np.kron(np.eye(2), _HILL_TO_LVLH)
+    return m @ phi_h @ m.T
+
+
+def cartwheel_state(rho_m, n_rad_s, t_s, phase_rad):
+    """State on the SPEC §2 relative circle at time t.
+
+    Parameters
+    ----------
+    rho_m : float
+        Radius of the circle, m.
+    n_rad_s : float
+    t_s : float or ndarray (T,)
+    phase_rad : float or ndarray (k,)
+        φ of each spacecraft on the circle.
+
+    Returns
+    -------
+    ndarray (..., 6)
+        ``[x, y, z, ẋ, ẏ, ż]`` broadcast over t and φ.
+    """
+    theta = n_rad_s * np.asarray(t_s, dtype=float) + np.asarray(phase_rad, dtype=float)
+    s, c = np.sin(theta), np.cos(theta)
+    half = np.sqrt(3.0) / 2.0
+    pos = rho_m * np.stack([c, half * s, -0.5 * s], axis=-1)
+    vel = rho_m * n_rad_s * np.stack([-s, half * c, -0.5 * c], axis=-1)
+    return np.concatenate([pos, vel], axis=-1)
+
+
+def deputy_phases(psi_rad, k=3):
+    """Phases ``φ_j = ψ + 2π (j − 1)/k`` of k deputies evenly spread on the circle, rad."""
+    return psi_rad + 2.0 * np.pi * np.arange(k) / k
+
+
+def discrete_lqr(n_rad_s, period_s, q, r):
+    """Discrete LQR keeping gain on the CW error, sampled with a zero-order hold.
+
+    Parameters
+    ----------
+    n_rad_s, period_s : float
+    q : array_like (6, 6)
+        State weight (m⁻², s²·m⁻²).
+    r : array_like (3, 3)
+        Input weight on the specific force per period, (m/s²)⁻².
+
+    Returns
+    -------
+    k : ndarray (3, 6)
+        ``f = −k e``, specific force held over the period, m/s².
+    p : ndarray (6, 6)
+        Stabilising solution of the discrete algebraic Riccati equation.
+
+    Notes
+    -----
+    ``Pₖ = ΦᵀPΦ − ΦᵀPΓ(R + ΓᵀPΓ)⁻¹ΓᵀPΦ + Q`` (scipy ``solve_discrete_are``); SPEC §2 eqs. 12–14
+    in discrete form, which is what a controller holding its command over a period needs.
+    """
+    phi, gam = discretize(*cw_matrices(n_rad_s), period_s)
+    q, r = np.asarray(q, dtype=float), np.asarray(r, dtype=float)
+    p = solve_discrete_are(phi, gam, q, r)
+    p = 0.5 * (p + p.T)
+    k = np.linalg.solve(r + gam.T @ p @ gam, gam.T @ p @ phi)
+    return k, p

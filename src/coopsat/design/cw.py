@@ -134,3 +134,27 @@ def discrete_lqr(n_rad_s, period_s, q, r):
     p = 0.5 * (p + p.T)
     k = np.linalg.solve(r + gam.T @ p @ gam, gam.T @ p @ phi)
     return k, p
+
+
+def cartwheel_eci(r_chief_eci, v_chief_eci, rho_m, n_rad_s, phase_rad, t_s=0.0):
+    """ECI positions and velocities of deputies placed on the relative circle at time t.
+
+    Parameters
+    ----------
+    r_chief_eci, v_chief_eci : (3,)
+        Chief position, m, and velocity, m/s.
+    rho_m, n_rad_s : float
+    phase_rad : (k,)
+    t_s : float
+
+    Returns
+    -------
+    r_eci, v_eci : ndarray (k, 3)
+        Through :func:`coopsat.geometry.frames.lvlh_to_eci` (rotating-frame velocity of the
+        circle plus the frame's rotation).
+    """
+    from coopsat.geometry.frames import lvlh_to_eci
+
+    x = cartwheel_state(rho_m, n_rad_s, t_s, phase_rad)
+    r, v = lvlh_to_eci(np.asarray(r_chief_eci), np.asarray(v_chief_eci), x[:, :3], x[:, 3:])
+    return np.asarray(r), np.asarray(v)

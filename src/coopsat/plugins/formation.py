@@ -133,7 +133,7 @@ def _design(table, ctx, force_scale_n=None):
     dict
         ``part`` (arrays of :class:`~coopsat.control.formation.LinearFormationSoftware`
         keyword arguments), ``gain``, ``observer``, ``centroid`` (the design results),
-        ``x_ref``, ``p0``, ``target``, ``decomposition``, ``closed_loop_radius`` (spectral
+        ``x_ref``, ``p0``, ``target``, ``decomposition``, ``axes``, ``closed_loop_radius`` (spectral
         radius of the sampled closed loop without the dead zone).
 
     Raises
@@ -214,7 +214,7 @@ def _design(table, ctx, force_scale_n=None):
     radius = float(np.max(np.abs(np.linalg.eigvals(np.vstack([top, bottom])))))
     return {
         "part": part, "gain": gain, "observer": observer, "centroid": centroid, "x_ref": x_ref, "p0": p0,
-        "target": target, "decomposition": dec, "closed_loop_radius": radius, "axes": axes, "k": k,
+        "target": target, "decomposition": dec, "closed_loop_radius": radius, "axes": axes,
     }
 
 
@@ -255,9 +255,7 @@ def _build(table, ctx):
     if not any(s.kind == "relative-position" for s in ctx.scenario.sensors):
         raise DesignError('controller: formation-observer reads relative positions; add a [[sensors]] kind = "relative-position"')
     out = design(table, ctx)
-    part = out["part"]
-    keys = ("phi", "gamma_y", "gamma_u", "c_u", "u_ff", "c_y", "y_map", "z0_map", "force_min_n", "force_max_n", "source")
-    return LinearFormationSoftware(*as_arrays(tuple(part[k] for k in keys)), axes=out["axes"])
+    return LinearFormationSoftware(**as_arrays(out["part"]), axes=out["axes"])
 
 
 def check_design(table, ctx):

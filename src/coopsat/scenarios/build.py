@@ -167,14 +167,13 @@ def _run_check(check, table, ctx, place):
 
 
 def _check_sensed_quantities(scenario, sensors, actuators):
-    """Every sensor measures a quantity the run's models have (a sensor that derives its
-    quantity from the state, ``derive``, checks its own needs when it is built)."""
+    """Every sensor's truth comes from quantities the run's models have (``needs``)."""
     from coopsat.dynamics.plant import state_quantities
 
     gravity = "none" if scenario.orbit is None else scenario.orbit.gravity
     have = set(state_quantities(scenario.sim.attitude, gravity, (a.channel for a in actuators)))
     for k, s in enumerate(sensors):
-        if s.quantity not in have and not hasattr(s, "derive"):
+        if not set(s.needs) <= have:
             raise ScenarioError(
                 f"sensors[{k}]: measures '{s.quantity}', which this run does not have "
                 f"(sim.attitude = {scenario.sim.attitude!r}; quantities: {', '.join(sorted(have))})"

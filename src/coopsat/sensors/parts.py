@@ -6,7 +6,10 @@ sensor protocol, docs/architecture.md §4):
 
 * ``quantity`` (class attribute, or a static field): the key it replaces, ``"q"`` (4, n),
   ``"omega"`` (3, n), ``"r_eci"`` or ``"v_eci"`` (3, n); or a quantity the sensor derives from
-  the plant state with ``derive(x)`` (``"rho"``, the relative positions, (4, n, n));
+  the plant state (``"rho"``, the relative positions, (4, n, n));
+* ``needs`` (the state quantities its truth comes from) and ``truth(y, x)`` (the true value of
+  what it reads, from the true quantities ``y`` or the plant state ``x``): a state quantity's
+  sensor takes it from ``y`` (:class:`_StateSensor`);
 * ``every`` (static int ≥ 1): the reading updates every ``every`` control periods and is held
   in between (the engine holds it; ``measure`` is still called every period, so a state such
   as the gyro bias advances every control period);
@@ -25,8 +28,20 @@ from coopsat._parts import OutputSpec, part
 from coopsat.sensors.noise import gyro_bias_step, gyro_measure, per_spacecraft_normal, star_tracker_measure, white_noise
 
 
+class _StateSensor:
+    """What a sensor of one plant state quantity shares: it needs that quantity and reads its
+    true value."""
+
+    @property
+    def needs(self):
+        return (self.quantity,)
+
+    def truth(self, y, x):
+        return y[self.quantity]
+
+
 @part(static=("every",))
-class StarTracker:
+class StarTracker(_StateSensor):
     """Star tracker: the attitude ``q_bi ⊗ δq`` with a small error rotation in the body frame.
 
     Attributes
@@ -60,7 +75,7 @@ class StarTracker:
 
 
 @part(static=("every",))
-class Gyro:
+class Gyro(_StateSensor):
     """Rate gyro: the body rate plus a random-walk bias plus white noise, rad/s, body frame.
 
     ``ω_meas = ω + b + σ ν`` with ``ν ~ N(0, 1)`` per axis and sample; the bias starts at
@@ -105,7 +120,7 @@ class Gyro:
 
 
 @part(static=("quantity", "every"))
-class NavigationNoise:
+class NavigationNoise(_StateSensor):
     """Navigation error: the ECI position or velocity plus white Gaussian noise.
 
     Attributes
@@ -188,8 +203,10 @@ class RelativePosition:
     every: int = 1
 
     quantity = "rho"
+    needs = ("r_eci",)
 
-    def derive(self, x):
+    def truth(self, y, x):
+        """True vectors (from the plant state, not another sensor's reading) and ``valid = 1``."""
         n = x.r_eci.shape[-1]
         return jnp.concatenate([relative_positions(x.r_eci), jnp.ones((1, n, n))], axis=0)
 

@@ -176,19 +176,13 @@ def _truth(system, x):
     return {q: getattr(x, STATE_QUANTITIES[q][0]) for q in _quantities(system)}
 
 
-def _sensor_truth(s, y, x):
-    """The true value of what a sensor reads: a state quantity, or one it derives from the
-    state (``derive(x)``: e.g. the relative positions a spacecraft sees)."""
-    return y[s.quantity] if s.quantity in y else s.derive(x)
-
-
 def _sense(system, x, st, frame, key):
     """Measurements of every spacecraft: the truth, with each sensor's quantity replaced by
     what the sensor reads (held between its updates)."""
     y = _truth(system, x)
     states, held = [], []
     for j, (s, s_state, s_held) in enumerate(zip(system.sensors, st["sensors"], st["held"])):
-        value, s_state = s.measure(_sensor_truth(s, y, x), x, s_state, jax.random.fold_in(key, _KEY_SENSORS + j))
+        value, s_state = s.measure(s.truth(y, x), x, s_state, jax.random.fold_in(key, _KEY_SENSORS + j))
         if s.every > 1:
             value = jnp.where(frame % s.every == 0, value, s_held)
         y[s.quantity] = value
@@ -328,8 +322,8 @@ def _initial_carry(system):
     truth = _truth(system_cm, x0)
     st = {
         "controller": system.controller.init(n),
-        "sensors": tuple(s.init(_sensor_truth(s, truth, x0), n) for s in system.sensors),
-        "held": tuple(_sensor_truth(s, truth, x0) for s in system.sensors),
+        "sensors": tuple(s.init(s.truth(truth, x0), n) for s in system.sensors),
+        "held": tuple(s.truth(truth, x0) for s in system.sensors),
         "actuators": tuple(a.init(n) for a in system.actuators),
         "disturbances": tuple(d.init(n) for d in system.disturbances),
         "network": (),

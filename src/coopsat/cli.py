@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|margin|design|topology|bench``.
+"""Command line: ``coopsat list|show|validate|run|margin|design|topology|tradeoff|sweep|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -20,9 +20,10 @@ def _input_errors():
     from coopsat.pipeline import RunFolderError
     from coopsat.scenarios.load import ScenarioError
     from coopsat.sim.engine import NonFiniteStateError
+    from coopsat.sweep import SweepError
     from coopsat.tradeoff import TradeoffError
 
-    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError)
+    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError)
 
 
 def _cmd_list(args):
@@ -263,6 +264,31 @@ def _cmd_tradeoff(args):
     return 0
 
 
+def _cmd_sweep(args):
+    from coopsat.sweep import parse_plot, parse_vary, printed_metrics, run_sweep, table_lines
+
+    varies = [parse_vary(spec) for spec in args.vary]
+    metrics = list(dict.fromkeys(m.strip() for m in args.metrics.split(","))) if args.metrics is not None else None
+    plots = [parse_plot(spec) for spec in args.plot]
+    result = run_sweep(args.scenario, varies, n_seeds=args.seeds, metrics=metrics, overrides=args.set,
+                       out_dir=args.out, plots=plots, progress=not args.quiet)
+    n_points, n_runs = len(result.points), len(result.runs)
+    print(f"{args.scenario}: {n_points} points x {args.seeds} seed{'s' if args.seeds > 1 else ''} = {n_runs} runs in "
+          f"{result.n_batches} batch{'es' if result.n_batches > 1 else ''} (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
+    shown = printed_metrics(result, metrics)
+    for line in table_lines(result, shown):
+        print(line)
+    notes = [f"mean / max over {args.seeds} seeds"] if args.seeds > 1 else []
+    if len(shown) < len(result.metrics):
+        where = f"sweep.csv and sweep.json in {args.out}" if args.out else "--out DIR writes them"
+        notes.append(f"{len(shown)} of {len(result.metrics)} metrics shown; --metrics m1,m2 chooses, {where}")
+    if notes:
+        print(f"({'; '.join(notes)})")
+    if args.out:
+        print(f"wrote {args.out}")
+    return 0
+
+
 def _cmd_bench(args):
     from coopsat.bench import run_benchmarks
 
@@ -331,6 +357,27 @@ def build_parser():
     trade.add_argument("--out", help="output folder (default runs/tradeoff)")
     trade.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     trade.set_defaults(func=_cmd_tradeoff)
+
+    sweep = sub.add_parser(
+        "sweep", help="run a scenario over values of any field(s) and tabulate its metrics",
+        description="Run a scenario once per value of one or more fields and tabulate its metrics. Several --vary "
+                    "with the same number of values are zipped: run k takes the k-th value of each (no cross product). "
+                    "Runs that share a compiled structure run as one vmapped batch; each run's metrics are those of "
+                    "coopsat run with the same --set.",
+    )
+    sweep.add_argument("scenario", help="bundled scenario name or path to a .toml file")
+    sweep.add_argument("--vary", action="append", required=True, metavar="FIELD=V1,V2,...",
+                       help="field and the values it takes, each a --set value (e.g. controller.period_s=0.01,0.02 or "
+                            "spacecraft.0.omega_b_rad_s=[0,0,0.1],[0,0,0.2]); repeatable, zipped")
+    sweep.add_argument("--seeds", type=int, default=1, metavar="K",
+                       help="runs per point, with seeds seed … seed+K-1; the table shows mean / max over them (default 1)")
+    sweep.add_argument("--metrics", metavar="M1,M2,...", help="metrics to tabulate (default: every scalar metric; at most 6 printed)")
+    sweep.add_argument("--plot", action="append", default=[], metavar="X:Y",
+                       help="draw metric Y against X (a metric or a varied field) into DIR/sweep_X_Y.png; needs --out (repeatable)")
+    sweep.add_argument("--out", metavar="DIR", help="folder for sweep.csv (one row per run), sweep.json and the plots")
+    sweep.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help + "; applied to every run")
+    sweep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    sweep.set_defaults(func=_cmd_sweep)
 
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")

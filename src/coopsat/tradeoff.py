@@ -3,11 +3,12 @@ weight and compared at matched settling time (SPEC §4).
 
 For every scenario given and every set of relative coordinates asked for, the controller's
 Bryson force scale (``controller.force_scale_n``, the weight that trades speed for fuel) is
-swept; the runs of one series share a structure and run as one vmapped batch. Each run's
-settling time and fuel come from the paper module's metrics on the exact closed loop (dead
-zone, saturation, noise, solar pressure), so the fronts are the tool's honest figures, not a
-linear model's. Designs are compared by the fuel of their Pareto fronts at the same settling
-time (:func:`coopsat.analysis.tradeoff.matched_saving`).
+swept; the runs of one series share a structure and run as one vmapped batch
+(:func:`coopsat.sweep.run_batch`). Each run's settling time and fuel come from the paper
+module's metrics on the exact closed loop (dead zone, saturation, noise, solar pressure), so
+the fronts are the tool's honest figures, not a linear model's. Designs are compared by the
+fuel of their Pareto fronts at the same settling time
+(:func:`coopsat.analysis.tradeoff.matched_saving`).
 """
 
 import json
@@ -41,26 +42,18 @@ def sweep(ref, scales_n, coordinates, progress=False):
         ``histories``: per run, ``t_s`` and the cumulative fuel against time (``fuel_l1_ns``
         (T, 3) per axis, ``fuel_l2_ns`` (T,)).
     """
-    from coopsat.pipeline import analyse, prepare
+    from coopsat.pipeline import analyse
     from coopsat.scenarios.load import load_scenario
-    from coopsat.sim.engine import RunOutput, output_specs, simulate
-    from coopsat.sim.recorder import to_dataset
-    from coopsat.sim.system import stack_systems
+    from coopsat.sweep import run_batch
 
     kind = load_scenario(ref).controller.kind
     if kind != "formation-observer":
         raise TradeoffError(f"{ref}: tradeoff sweeps a formation-observer controller, this one is {kind}")
-    builds = [
-        prepare(load_scenario(ref, [f"controller.force_scale_n={s!r}", f"controller.coordinates={coordinates!r}"]))
-        for s in scales_n
-    ]
-    first = builds[0]
-    out = simulate(stack_systems([b.system for b in builds]), first.n_records, first.record_interval_s, batched=True, progress=progress)
-    specs = output_specs(first.system)
+    runs, compile_s, run_s = run_batch(
+        ref, [[f"controller.force_scale_n={s!r}", f"controller.coordinates={coordinates!r}"] for s in scales_n], progress
+    )
     rows, histories = [], []
-    for k, (s, built) in enumerate(zip(scales_n, builds)):
-        one = RunOutput(out.t_s, {name: v[k] for name, v in out.samples.items()}, 0.0, 0.0)
-        ds = to_dataset(one, built.names, {"scenario_name": built.scenario.name}, specs)
+    for s, (built, ds) in zip(scales_n, runs):
         metrics, _ = analyse(built, ds, compare=False)
         c = built.scenario.controller
         rows.append({"scenario": built.scenario.name, "design": c.design, "coordinates": coordinates, "force_scale_n": float(s), **metrics})
@@ -69,7 +62,7 @@ def sweep(ref, scales_n, coordinates, progress=False):
             "fuel_l1_ns": ds["abs_force_impulse"].values.sum(axis=1),  # (T, 3) per axis
             "fuel_l2_ns": ds["norm_force_impulse"].values.sum(axis=1) if "norm_force_impulse" in ds else None,
         })
-    return rows, histories, out.compile_s, out.run_s
+    return rows, histories, compile_s, run_s
 
 
 def _finite(v):

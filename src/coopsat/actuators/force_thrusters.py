@@ -72,7 +72,7 @@ class _ForceActuator:
         return {}
 
 
-@part(static=("frame", "command"))
+@part(static=("frame", "command", "carry"))
 class ImpulseBitThrusters(_ForceActuator):
     """MEMS thrusters firing whole impulse bits, one ± pair per axis (SPEC §2).
 
@@ -95,10 +95,15 @@ class ImpulseBitThrusters(_ForceActuator):
         Static: the axes of the thrusters (channel ``force_lvlh``, ``force_b`` or ``force_eci``).
     command : str
         Static: the controller command it executes (a force, N, in ``frame``).
+    carry : bool
+        Static: carry the rounding remainder to the next period (first-order sigma-delta:
+        the delivered impulse follows the commanded one to within half a bit over any run of
+        periods), or drop it (plain rounding each period: a command below half a bit per
+        period never fires, a dead band of ``bit/(2T)`` in force).
 
     Notes
     -----
-    State: the carried remainder (3, n), N·s, within ±bit/2.
+    State: the carried remainder (3, n), N·s, within ±bit/2 (zero when dropped).
     """
 
     bit_ns: jnp.ndarray
@@ -106,6 +111,7 @@ class ImpulseBitThrusters(_ForceActuator):
     max_bits: jnp.ndarray
     frame: str = "lvlh"
     command: str = "force_lvlh"
+    carry: bool = True
 
     pulsed = True
 
@@ -115,7 +121,7 @@ class ImpulseBitThrusters(_ForceActuator):
     def plan(self, command, x, state, period_s, key):
         bits, remainder = quantise_impulse(command * period_s, state, self.bit_ns, self.max_bits)
         level, t_on = bits_pulse(bits, self.bit_ns, self.thrust_n)
-        return Pulse(level, t_on), remainder
+        return Pulse(level, t_on), remainder if self.carry else jnp.zeros_like(remainder)
 
     def account(self, pulse):
         """Impulse counters, and the whole bits fired per axis (either sign)."""

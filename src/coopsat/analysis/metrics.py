@@ -93,6 +93,31 @@ def settle_time_s(t_s, ok, hold_s=0.0):
     return settled if t_s[-1] - settled >= hold_s else None
 
 
+def arrival_time_s(t_s, ok, hold_s=0.0):
+    """First sample time from which ``ok`` holds for at least ``hold_s``; None if never.
+
+    Unlike :func:`settle_time_s` the condition may fail again later (a keeping error that
+    arrives in its band and then rattles about its edge has still arrived).
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (T,)
+    ok : ndarray of bool, shape (T,)
+    hold_s : float
+
+    Returns
+    -------
+    float or None
+    """
+    ok = np.asarray(ok, dtype=bool)
+    # End of the run of consecutive True samples each sample belongs to (its own time if False).
+    idx = np.arange(ok.size)
+    next_bad = np.minimum.accumulate(np.where(~ok, idx, ok.size)[::-1])[::-1]
+    run_end = t_s[np.maximum(next_bad - 1, 0)]
+    held = ok & (run_end - t_s >= hold_s)
+    return float(t_s[np.argmax(held)]) if held.any() else None
+
+
 def inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms=0.0):
     """Total angular momentum of the formation in inertial components, N·m·s.
 

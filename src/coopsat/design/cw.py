@@ -16,14 +16,11 @@ import numpy as np
 from scipy.linalg import solve_discrete_are
 
 from coopsat.design.formation import discretize
-
-#: From the classical Hill frame (x_H radial out, y_H along-track, z_H orbit normal) to ours:
-#: x = y_H, y = −z_H, z = −x_H (positions; velocities alike).
-_HILL_TO_LVLH = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0]])
+from coopsat.dynamics import cw as dynamics_cw
 
 
 def cw_matrices(n_rad_s):
-    """State and input matrices of the CW equations in our LVLH axes.
+    """State and input matrices of the CW equations in our LVLH axes, as numpy arrays.
 
     Parameters
     ----------
@@ -35,44 +32,36 @@ def cw_matrices(n_rad_s):
     a : ndarray (6, 6), 1/s and 1/s²
     b : ndarray (6, 3)
         Input: specific force, m/s².
+
+    Notes
+    -----
+    One implementation: :func:`coopsat.dynamics.cw.cw_matrices`, copied into writable numpy
+    arrays for scipy.
     """
-    n = float(n_rad_s)
-    a = np.zeros((6, 6))
-    a[:3, 3:] = np.eye(3)
-    a[3, 5] = 2.0 * n  # ẍ = 2n ż
-    a[4, 1] = -n * n  # ÿ = −n² y
-    a[5, 3] = -2.0 * n  # z̈ = −2n ẋ + 3n² z
-    a[5, 2] = 3.0 * n * n
-    b = np.vstack([np.zeros((3, 3)), np.eye(3)])
-    return a, b
+    a, b = dynamics_cw.cw_matrices(n_rad_s)
+    return np.array(a), np.array(b)
 
 
 def cw_stm(n_rad_s, t_s):
     """Closed-form state-transition matrix Φ(t) of the unforced CW equations, our LVLH axes.
 
+    Parameters
+    ----------
+    n_rad_s : float
+        Mean motion, rad/s.
+    t_s : float or array_like (...)
+        Elapsed time, s.
+
     Returns
     -------
-    ndarray (6, 6)
+    ndarray (..., 6, 6)
 
     Notes
     -----
-    The classical Hill-frame solution (e.g. Vallado, *Fundamentals of Astrodynamics*, 4th ed.,
-    §6.8, eq. 6-66), rotated into our axes by the fixed permutation with signs
-    ``x = y_H, y = −z_H, z = −x_H``.
+    One implementation: :func:`coopsat.dynamics.cw.cw_stm` (Vallado, 4th ed., eq. 6-66, with
+    ``x = y_H, y = −z_H, z = −x_H``), converted to numpy.
     """
-    n, t = float(n_rad_s), float(t_s)
-    s, c, nt = np.sin(n * t), np.cos(n * t), n * t
-    # Hill frame: [x_H, y_H, z_H, ẋ_H, ẏ_H, ż_H].
-    phi_h = np.array([
-        [4 - 3 * c, 0, 0, s / n, 2 * (1 - c) / n, 0],
-        [6 * (s - nt), 1, 0, -2 * (1 - c) / n, (4 * s - 3 * nt) / n, 0],
-        [0, 0, c, 0, 0, s / n],
-        [3 * n * s, 0, 0, c, 2 * s, 0],
-        [-6 * n * (1 - c), 0, 0, -2 * s, 4 * c - 3, 0],
-        [0, 0, -n * s, 0, 0, c],
-    ])
-    m = np.kron(np.eye(2), _HILL_TO_LVLH)
-    return m @ phi_h @ m.T
+    return np.array(dynamics_cw.cw_stm(n_rad_s, t_s))
 
 
 def cartwheel_state(rho_m, n_rad_s, t_s, phase_rad):

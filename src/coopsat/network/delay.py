@@ -80,7 +80,8 @@ class DelayedNetwork:
 
     def init(self, outbox0):
         """Ring buffer filled with the first outbox; τ due for a draw at period 0."""
-        buffer = jax.tree_util.tree_map(lambda v: jnp.tile(v, (1, self.buffer_periods)), outbox0)
+        # Any message shape (..., n): the history of the spacecraft axis lies along it.
+        buffer = jax.tree_util.tree_map(lambda v: jnp.tile(v, (1,) * (v.ndim - 1) + (self.buffer_periods,)), outbox0)
         state = {"buffer": buffer, "tau": jnp.zeros((), jnp.int64), "next_draw": jnp.zeros((), jnp.int64)}
         if self.lossy and self.hold:
             state["last"] = jax.tree_util.tree_map(

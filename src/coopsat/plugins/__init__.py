@@ -31,6 +31,7 @@ PLUGIN_MODULES = (
     "coopsat.plugins.force_actuators",
     "coopsat.plugins.wheel_actuators",
     "coopsat.plugins.pid",
+    "coopsat.plugins.cartwheel",
     "coopsat.plugins.leader_follower",
     "coopsat.plugins.formation",
     "coopsat.plugins.networks",
@@ -90,6 +91,8 @@ class BuildContext:
         Each graph's place in the scenario (``"network"``, ``"network.switches[0]"``).
     switch_ticks : ndarray of int (G,)
         First tick of each graph.
+    r_eci_m, v_eci_m_s : ndarray (n, 3)
+        Initial ECI positions, m, and velocities, m/s (zeros for a run without ``[orbit]``).
     """
 
     scenario: object
@@ -100,6 +103,8 @@ class BuildContext:
     adjacencies: list
     graph_places: list
     switch_ticks: object
+    r_eci_m: object = None
+    v_eci_m_s: object = None
 
     @property
     def n(self):

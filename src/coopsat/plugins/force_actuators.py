@@ -16,7 +16,7 @@ _CHANNEL_COMMAND = {"lvlh": "force_lvlh", "body": "force_b", "inertial": "force_
 
 
 class ImpulseBitThrusters(Table):
-    """``kind = "impulse-bit-thrusters"``: whole impulse bits per axis, remainder carried."""
+    """``kind = "impulse-bit-thrusters"``: whole impulse bits per axis, the rounding remainder carried or dropped."""
 
     kind: Literal["impulse-bit-thrusters"]
     bit_ns: float = Field(1e-5, gt=0, le=1e6, description="Impulse of one bit, N·s.")
@@ -28,6 +28,10 @@ class ImpulseBitThrusters(Table):
         "lvlh", description="Thruster axes: the chief's LVLH frame, the body, or inertial (held fixed in space)."
     )
     command: str | None = Field(None, description="Controller command executed (default force_lvlh / force_b / force_eci by frame).")
+    remainder: Literal["carry", "drop"] = Field(
+        "carry", description="The rounding remainder: carried to the next period (sigma-delta), or dropped (a command "
+        "below half a bit per period never fires)."
+    )
 
 
 class ProportionalThrusters(Table):
@@ -102,7 +106,9 @@ def _build_bits(table, ctx):
     from coopsat.sim.system import as_arrays
 
     bits = float(max_bits(table, ctx.period_s))
-    return Part(*as_arrays((table.bit_ns, table.thrust_n, bits)), frame=table.frame, command=_command(table))
+    return Part(
+        *as_arrays((table.bit_ns, table.thrust_n, bits)), frame=table.frame, command=_command(table), carry=table.remainder == "carry"
+    )
 
 
 def _build_proportional(table, ctx):

@@ -1,5 +1,5 @@
-"""Sensors (``[[sensors]]``): star tracker, rate gyro, navigation (position / velocity) noise and
-relative position between spacecraft.
+"""Sensors (``[[sensors]]``): star tracker, rate gyro, navigation (position / velocity) noise,
+relative position between spacecraft, and relative navigation in the chief's LVLH frame.
 
 Each table replaces one quantity the flight software reads by what a sensor measures; a
 quantity no sensor measures is read perfectly. Every sensor may update more slowly than the
@@ -89,8 +89,19 @@ class RelativePosition(Table):
     period_s: float | None = _PERIOD
 
 
+class RelativeNavigation(Table):
+    """``kind = "relative-navigation"``: each spacecraft's state relative to the chief, in its LVLH frame (needs ``[orbit]``)."""
+
+    kind: Literal["relative-navigation"]
+    chief: str = Field(description="The reference spacecraft: its LVLH frame, and the origin of every relative state.")
+    sigma_m: PerAxis = Field(0.0, description="Standard deviation of the relative position error per LVLH axis, m.")
+    sigma_m_s: PerAxis = Field(0.0, description="Standard deviation of the relative velocity error per LVLH axis, m/s.")
+    period_s: float | None = _PERIOD
+
+
 _QUANTITY = {
     "star-tracker": "q", "gyro": "omega", "position-noise": "r_eci", "velocity-noise": "v_eci", "relative-position": "rho",
+    "relative-navigation": "x_lvlh",
 }
 """The measured quantity each kind replaces."""
 
@@ -112,7 +123,7 @@ def _every(table, ctx):
             raise DesignError(
                 f"{where}: measures {quantity} like sensors[{k}]; give one sensor per measured quantity"
             )
-    if quantity in ("r_eci", "v_eci", "rho") and ctx.scenario.orbit is None:
+    if quantity in ("r_eci", "v_eci", "rho", "x_lvlh") and ctx.scenario.orbit is None:
         raise DesignError(
             f'{where}: kind = "{table.kind}" measures {quantity}, which needs an [orbit] table (this run is attitude only)'
         )
@@ -182,8 +193,20 @@ def _build_relative(table, ctx):
     return Part(*as_arrays(arrays), names=tuple(ctx.names), every=every)
 
 
+def _build_relative_navigation(table, ctx):
+    from coopsat.sensors.parts import RelativeNavigation as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    if table.chief not in ctx.names:
+        raise DesignError(f"{_place(table, ctx)}.chief: unknown spacecraft '{table.chief}' (known: {', '.join(ctx.names)})")
+    sigma = np.concatenate([_per_axis(table.sigma_m), _per_axis(table.sigma_m_s)])
+    return Part(*as_arrays((sigma, np.int32(ctx.names.index(table.chief)))), every=every)
+
+
 register(Plugin("sensor", "star-tracker", StarTracker, _build_star_tracker))
 register(Plugin("sensor", "gyro", Gyro, _build_gyro))
 register(Plugin("sensor", "position-noise", PositionNoise, _build_navigation))
 register(Plugin("sensor", "velocity-noise", VelocityNoise, _build_navigation))
 register(Plugin("sensor", "relative-position", RelativePosition, _build_relative))
+register(Plugin("sensor", "relative-navigation", RelativeNavigation, _build_relative_navigation))

@@ -122,9 +122,8 @@ def build_adjacency(network, names, where="network"):
     return network.weight * topology.NAMED_GRAPHS[kind](n, directed=network.directed)
 
 
-def _translational_state(sc, orbit):
-    if orbit is None:
-        return np.zeros(3), np.zeros(3)
+def _absolute_state(sc, orbit):
+    """ECI position, m, and velocity, m/s, of a spacecraft whose own state is given."""
     if sc.elements is not None:
         el = sc.elements
         return elements_to_rv(
@@ -132,6 +131,25 @@ def _translational_state(sc, orbit):
             math.radians(el.mean_anomaly_deg), orbit.mu_m3_s2,
         )
     return np.asarray(sc.r_eci_m, dtype=float), np.asarray(sc.v_eci_m_s, dtype=float)
+
+
+def _translational_states(spacecraft, orbit):
+    """ECI (r, v) of every spacecraft; one given ``relative`` to another is placed in that
+    one's LVLH frame (:func:`coopsat.geometry.frames.lvlh_to_eci`)."""
+    from coopsat.geometry.frames import lvlh_to_eci  # jax: only for runs with an orbit
+
+    if orbit is None:
+        return [(np.zeros(3), np.zeros(3)) for _ in spacecraft]
+    absolute = {sc.name: _absolute_state(sc, orbit) for sc in spacecraft if sc.relative is None}
+    out = []
+    for sc in spacecraft:
+        if sc.relative is None:
+            out.append(absolute[sc.name])
+            continue
+        r_ref, v_ref = absolute[sc.relative.to]
+        r, v = lvlh_to_eci(r_ref, v_ref, np.asarray(sc.relative.rho_lvlh_m), np.asarray(sc.relative.rho_dot_lvlh_m_s))
+        out.append((np.asarray(r), np.asarray(v)))
+    return out
 
 
 def _scenario_tables(scenario):
@@ -210,7 +228,7 @@ def build(scenario):
     inertia = np.stack([inertia_matrix(sc.inertia_kgm2) for sc in scenario.spacecraft])
     q0 = np.array([sc.q_bi for sc in scenario.spacecraft], dtype=float)
     q0 /= np.linalg.norm(q0, axis=1, keepdims=True)
-    rv = [_translational_state(sc, scenario.orbit) for sc in scenario.spacecraft]
+    rv = _translational_states(scenario.spacecraft, scenario.orbit)
     places = ["network"] + [f"network.switches[{k}]" for k in range(len(scenario.network.switches))]
     graphs = [scenario.network, *scenario.network.switches]
     adjacencies = [build_adjacency(g, names, where) for g, where in zip(graphs, places)]
@@ -220,6 +238,7 @@ def build(scenario):
     ctx = BuildContext(
         scenario=scenario, names=names, inertia_kgm2=inertia, dt_s=dt, period_s=period, adjacencies=adjacencies,
         graph_places=places, switch_ticks=np.array([round(t / dt) for t in switch_times], dtype=np.int64),
+        r_eci_m=np.array([r for r, _ in rv], dtype=float), v_eci_m_s=np.array([v for _, v in rv], dtype=float),
     )
 
     parts = {"controller": [], "network": [], "sensor": [], "actuator": [], "disturbance": []}

@@ -127,6 +127,16 @@ class Elements(Table):
     mean_anomaly_deg: float = 0.0
 
 
+class Relative(Table):
+    """``[spacecraft.relative]``: the initial state given relative to another spacecraft, in its LVLH frame."""
+
+    to: str = Field(description="The reference spacecraft (its own state given by r_eci_m/v_eci_m_s or elements).")
+    rho_lvlh_m: Bounded3(MAX_DISTANCE_M, "m") = Field(description="Position relative to it, its LVLH axes, m.")
+    rho_dot_lvlh_m_s: Bounded3(MAX_SPEED_M_S, "m/s") = Field(
+        [0.0, 0.0, 0.0], description="Velocity relative to it as seen in its rotating LVLH frame, m/s."
+    )
+
+
 class SpacecraftDefaults(Table):
     """``[spacecraft_defaults]``: fields every ``[[spacecraft]]`` inherits unless it sets them."""
 
@@ -155,11 +165,13 @@ class Spacecraft(Table):
     r_eci_m: Bounded3(MAX_DISTANCE_M, "m") | None = None
     v_eci_m_s: Bounded3(MAX_SPEED_M_S, "m/s") | None = None
     elements: Elements | None = None
+    relative: Relative | None = None
 
     @model_validator(mode="after")
     def _one_translational_source(self):
-        if self.elements is not None and (self.r_eci_m is not None or self.v_eci_m_s is not None):
-            raise ValueError("give either elements or r_eci_m/v_eci_m_s, not both")
+        given = [k for k, v in (("elements", self.elements), ("r_eci_m/v_eci_m_s", self.r_eci_m), ("relative", self.relative)) if v]
+        if len(given) > 1:
+            raise ValueError(f"give one of elements, r_eci_m/v_eci_m_s or relative, not {' and '.join(given)}")
         if (self.r_eci_m is None) != (self.v_eci_m_s is None):
             raise ValueError("r_eci_m and v_eci_m_s go together")
         return self
@@ -301,12 +313,19 @@ class Scenario(Table):
         names = [s.name for s in self.spacecraft]
         if len(set(names)) != len(names):
             raise ValueError(f"spacecraft: names must be unique, got {names}")
-        has_rv = [s.r_eci_m is not None or s.elements is not None for s in self.spacecraft]
+        has_rv = [s.r_eci_m is not None or s.elements is not None or s.relative is not None for s in self.spacecraft]
+        absolute = {s.name for s in self.spacecraft if s.r_eci_m is not None or s.elements is not None}
+        for k, s in enumerate(self.spacecraft):
+            if s.relative is not None and s.relative.to not in absolute:
+                raise ValueError(
+                    f"spacecraft[{k}].relative.to: '{s.relative.to}' must name a spacecraft whose own state is given "
+                    f"(r_eci_m/v_eci_m_s or elements): {', '.join(sorted(absolute)) or 'none is'}"
+                )
         if self.orbit is None and any(has_rv):
             raise ValueError("spacecraft: a position or orbital elements are given but there is no [orbit] table")
         if self.orbit is not None and not all(has_rv):
             missing = [s.name for s, h in zip(self.spacecraft, has_rv) if not h]
-            raise ValueError(f"orbit: every spacecraft needs r_eci_m/v_eci_m_s or elements; missing for {missing}")
+            raise ValueError(f"orbit: every spacecraft needs r_eci_m/v_eci_m_s, elements or relative; missing for {missing}")
         period = self.control_period_s
         _whole_multiple(period, self.sim.dt_s, "controller.period_s", "sim.dt_s")
         _whole_multiple(self.record_interval_s, period, "sim.record_interval_s", "the control period")

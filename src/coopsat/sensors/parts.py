@@ -25,6 +25,7 @@ from coopsat import _jax  # noqa: F401
 import jax.numpy as jnp
 
 from coopsat._parts import OutputSpec, part
+from coopsat.geometry.frames import eci_to_lvlh
 from coopsat.sensors.noise import gyro_bias_step, gyro_measure, per_spacecraft_normal, star_tracker_measure, white_noise
 
 
@@ -237,5 +238,57 @@ class RelativePosition:
                 "relative position of each target as measured by the spacecraft (r_target - r_spacecraft), "
                 "and whether its line of sight was open (valid, 1/0), at the sample",
                 coords=(("rel_component", ("x", "y", "z", "valid")), ("target", self.names)),
+            )
+        }
+
+
+@part(static=("every",))
+class RelativeNavigation:
+    """Relative navigation (SPEC §2): each spacecraft's state relative to a reference spacecraft
+    (the chief), in the chief's LVLH frame, with white noise per axis.
+
+    The reading is ``(6, n)``: rows ``x, y, z`` (m) and ``ẋ, ẏ, ż`` (m/s, as seen in the
+    rotating frame), :func:`coopsat.geometry.frames.eci_to_lvlh` of the true ECI states. The
+    reference spacecraft's own column is zero and exact: its state relative to itself is known.
+
+    Attributes
+    ----------
+    sigma : (6,)
+        Standard deviation of the position (m) and velocity (m/s) error per LVLH axis.
+    chief : int scalar
+        Index of the reference spacecraft.
+    every : int
+        Static: control periods between updates.
+    """
+
+    sigma: jnp.ndarray
+    chief: jnp.ndarray
+    every: int = 1
+
+    quantity = "x_lvlh"
+    needs = ("r_eci", "v_eci")
+
+    def truth(self, y, x):
+        """True relative states (from the plant state), (6, n)."""
+        r_c, v_c = x.r_eci[:, self.chief][:, None], x.v_eci[:, self.chief][:, None]
+        rho, rho_dot = eci_to_lvlh(r_c, v_c, x.r_eci, x.v_eci, axis=0)
+        return jnp.concatenate([rho, rho_dot], axis=0)
+
+    def init(self, truth_value, n):
+        return ()
+
+    def measure(self, truth_value, x, state, key):
+        """The noisy relative states (6, n); the reference spacecraft's column exactly zero."""
+        n = truth_value.shape[-1]
+        noisy = white_noise(truth_value, key, self.sigma)
+        return jnp.where(jnp.arange(n) == self.chief, 0.0, noisy), state
+
+    def output_specs(self):
+        return {
+            "measured_x_lvlh": OutputSpec(
+                ("lvlh_state",), "m, m/s", "LVLH",
+                "state relative to the chief in its LVLH frame as measured by the spacecraft's relative navigation "
+                "(x, y, z in m; vx, vy, vz in m/s, rotating-frame rates), at the sample",
+                coords=(("lvlh_state", ("x", "y", "z", "vx", "vy", "vz")),),
             )
         }

@@ -1,0 +1,445 @@
+"""``coopsat sweep``: a scenario run over values of any field(s), its metrics tabulated.
+
+Each ``--vary FIELD=V1,V2,…`` is a list of ``--set`` values for one field; several lists of one
+length are zipped (run k takes the k-th value of each). With ``seeds`` = K every point runs
+with the seeds ``seed … seed + K − 1`` and is summarised by the mean and the max of each metric
+over them. The runs are grouped by compiled structure (:func:`group_runs`) and each
+group runs as one vmapped batch (:func:`run_batch`, also the engine of
+:mod:`coopsat.tradeoff`); every run's metrics are those ``coopsat run`` reports for the same
+overrides.
+"""
+
+import csv
+import json
+import re
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from coopsat import _interrupt
+from coopsat.pipeline import _json_ready, _umask, analyse, metric_names, prepare
+from coopsat.scenarios.load import _parse_value, clip_echo, load_scenario
+
+MARKER = "sweep.json"
+"""Written into every sweep folder: only a folder holding it is replaced by a new sweep."""
+
+PRINTED_METRICS = 6
+"""Metric columns printed when none are chosen (every metric is in the files)."""
+
+
+class SweepError(ValueError):
+    """A sweep that cannot be run as asked (one line)."""
+
+
+@dataclass
+class SweepResult:
+    """What :func:`run_sweep` produced.
+
+    Attributes
+    ----------
+    fields : list of str
+        The varied field paths.
+    texts : list of list of str
+        Per point, each field's value as given.
+    runs : list of dict
+        Per run (point-major, then seed): each field's value, ``seed``, and every scalar metric.
+    points : list of dict
+        Per point: ``values`` ({field: value}), ``seeds``, and ``mean`` and ``max`` over the
+        seeds of each of ``metrics`` (NaN where a run has none, e.g. a time never reached).
+    metrics : list of str
+        The metrics tabulated: those asked for, else every scalar metric.
+    n_batches : int
+        Vmapped batches (one per compiled structure).
+    compile_s, run_s : float
+        Wall time compiling and running the closed loops, s.
+    """
+
+    fields: list
+    texts: list
+    runs: list
+    points: list
+    metrics: list
+    n_batches: int
+    compile_s: float
+    run_s: float
+
+
+def split_values(text):
+    """``V1,V2,…`` split at the commas outside brackets, braces and quotes (so that
+    ``[0,0,1],[0,1,0]`` is two arrays), each stripped."""
+    pieces, depth, quote, start = [], 0, None, 0
+    for k, ch in enumerate(text):
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            pieces.append(text[start:k].strip())
+            start = k + 1
+    return pieces + [text[start:].strip()]
+
+
+def parse_vary(spec):
+    """One ``--vary FIELD=V1,V2,…``.
+
+    Returns
+    -------
+    (field, texts)
+        The field path and each value's text (a ``--set`` value: TOML, else a bare string).
+
+    Raises
+    ------
+    SweepError
+        No ``=``, no field, no values, or an empty value.
+    """
+    field, sep, values = spec.partition("=")
+    field = field.strip()
+    if not sep or not field:
+        raise SweepError(f"--vary {clip_echo(spec)}: expected FIELD=V1,V2,... (e.g. controller.period_s=0.01,0.02)")
+    texts = split_values(values)
+    if not any(texts):
+        raise SweepError(f"--vary {clip_echo(field)}: no values (expected {clip_echo(field)}=V1,V2,...)")
+    if not all(texts):
+        raise SweepError(f"--vary {clip_echo(spec)}: an empty value between commas")
+    return field, texts
+
+
+def zip_points(varies):
+    """Zip parsed ``--vary`` lists into points.
+
+    Parameters
+    ----------
+    varies : list of (field, texts)
+
+    Returns
+    -------
+    list of list of str
+        Per point, one ``field=value`` override per varied field.
+
+    Raises
+    ------
+    SweepError
+        No list, a field given twice, or lists of different lengths.
+    """
+    if not varies:
+        raise SweepError("--vary: give at least one FIELD=V1,V2,...")
+    fields = [f for f, _ in varies]
+    twice = sorted({f for f in fields if fields.count(f) > 1})
+    if twice:
+        raise SweepError(f"--vary {clip_echo(twice[0])}: given twice; give each field once")
+    lengths = {len(t) for _, t in varies}
+    if len(lengths) > 1:
+        counts = ", ".join(f"{clip_echo(f)}: {len(t)}" for f, t in varies)
+        raise SweepError(f"--vary: zipped lists differ in length ({counts}); give each --vary the same number of values")
+    return [[f"{f}={t[k]}" for f, t in varies] for k in range(lengths.pop())]
+
+
+def parse_plot(spec):
+    """One ``--plot X:Y`` as ``(x, y)``; raises :class:`SweepError` unless both are named."""
+    x, sep, y = spec.partition(":")
+    if not sep or not x.strip() or not y.strip():
+        raise SweepError(f"--plot {clip_echo(spec)}: expected X:Y (a metric or varied field, then a metric)")
+    return x.strip(), y.strip()
+
+
+def group_runs(builds):
+    """Indices of the built runs that can share one vmapped batch, in order of first appearance.
+
+    Runs share a batch when their systems' pytree structure (static configuration) and every
+    leaf's shape and dtype agree (what :func:`~coopsat.sim.system.stack_systems` needs), and so
+    do their record times (``n_records``, ``record_interval_s``).
+
+    Returns
+    -------
+    list of list of int
+    """
+    import jax
+    import jax.numpy as jnp
+
+    groups = {}
+    for k, b in enumerate(builds):
+        leaves = tuple((jnp.shape(v), jnp.result_type(v)) for v in jax.tree_util.tree_leaves(b.system))
+        key = (jax.tree_util.tree_structure(b.system), leaves, b.n_records, b.record_interval_s)
+        groups.setdefault(key, []).append(k)
+    return list(groups.values())
+
+
+def prepare_runs(ref, override_lists):
+    """Load, validate and build the scenario once per override list (nothing runs)."""
+    return [prepare(load_scenario(ref, overrides)) for overrides in override_lists]
+
+
+def simulate_runs(builds, progress=False):
+    """Simulate built runs, one vmapped batch per group of :func:`group_runs`.
+
+    Returns
+    -------
+    (datasets, compile_s, run_s)
+        One dataset per build, in order (attributes ``scenario_name`` and ``seed``), and the
+        wall time compiling and running all batches, s.
+    """
+    from coopsat.sim.engine import RunOutput, output_specs, simulate
+    from coopsat.sim.recorder import to_dataset
+    from coopsat.sim.system import stack_systems
+
+    datasets, compile_s, run_s = [None] * len(builds), 0.0, 0.0
+    for group in group_runs(builds):
+        first = builds[group[0]]
+        out = simulate(
+            stack_systems([builds[k].system for k in group]), first.n_records, first.record_interval_s,
+            batched=True, progress=progress, names=first.names,
+        )
+        compile_s += out.compile_s
+        run_s += out.run_s
+        specs = output_specs(first.system)
+        for i, k in enumerate(group):
+            one = RunOutput(out.t_s, {name: v[i] for name, v in out.samples.items()}, 0.0, 0.0)
+            sc = builds[k].scenario
+            datasets[k] = to_dataset(one, builds[k].names, {"scenario_name": sc.name, "seed": sc.seed}, specs)
+        _interrupt.check()
+    return datasets, compile_s, run_s
+
+
+def run_batch(ref, override_lists, progress=False):
+    """Run a scenario once per override list, batching the runs that share a structure.
+
+    Parameters
+    ----------
+    ref : str or Path
+        Bundled scenario name or TOML path.
+    override_lists : list of list of str
+        Per run, its ``key.path=value`` overrides.
+    progress : bool
+        Progress bar per batch.
+
+    Returns
+    -------
+    (runs, compile_s, run_s)
+        ``runs``: per override list, ``(built, dataset)``.
+    """
+    builds = prepare_runs(ref, override_lists)
+    datasets, compile_s, run_s = simulate_runs(builds, progress)
+    return list(zip(builds, datasets)), compile_s, run_s
+
+
+def _is_scalar(value):
+    return value is None or isinstance(value, (bool, int, float, np.bool_, np.integer, np.floating))
+
+
+def _number(value):
+    return np.nan if value is None else float(value)
+
+
+def _is_number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def summarise(runs, fields, metrics, n_seeds):
+    """Per point (``n_seeds`` consecutive runs): its field values, seeds, and the mean and max
+    of each metric over the seeds (a metric missing or null in a run makes them NaN)."""
+    points = []
+    for start in range(0, len(runs), n_seeds):
+        group = runs[start:start + n_seeds]
+        values = np.array([[_number(r.get(m)) for m in metrics] for r in group], dtype=float).reshape(len(group), len(metrics))
+        points.append({
+            "values": {f: group[0][f] for f in fields},
+            "seeds": [r["seed"] for r in group],
+            "mean": dict(zip(metrics, values.mean(axis=0).tolist())),
+            "max": dict(zip(metrics, values.max(axis=0).tolist())),
+        })
+    return points
+
+
+def check_sweep_folder(out_dir):
+    """Refuse, before anything runs, a target that exists and is not a sweep folder."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not (out_dir.is_dir() and (out_dir / MARKER).is_file()):
+        raise SweepError(f"--out {out_dir}: exists and is not a sweep folder (no {MARKER}); choose another folder or remove it")
+
+
+def _check_names(metrics, plots, known, fields, texts):
+    """Every metric asked for is one the runs report; every plot's x is one, or a varied field
+    with numbers for values."""
+    names = set(metrics or ()) | {y for _, y in plots} | {x for x, _ in plots if x not in fields}
+    unknown = sorted(names - known)
+    if unknown:
+        raise SweepError(f"unknown metric '{clip_echo(unknown[0])}' (metrics of this scenario: {', '.join(sorted(known))})")
+    for x, _ in plots:
+        if x in fields and not all(_is_number(_parse_value(t[fields.index(x)])) for t in texts):
+            raise SweepError(f"--plot {clip_echo(x)}: this field's values are not all numbers; plot against a metric")
+
+
+def _seeded(ref, sets, points, n_seeds):
+    """Per run (point-major), its overrides: ``--set``, the point's values, then its seed."""
+    if n_seeds < 1:
+        raise SweepError(f"--seeds {n_seeds}: must be at least 1")
+    if n_seeds == 1:
+        return [[*sets, *p] for p in points]
+    runs = []
+    for p in points:
+        base = load_scenario(ref, [*sets, *p]).seed
+        runs += [[*sets, *p, f"seed={base + k}"] for k in range(n_seeds)]
+    return runs
+
+
+def run_sweep(ref, varies, n_seeds=1, metrics=None, overrides=(), out_dir=None, plots=(), progress=False):
+    """Run a scenario over zipped values of fields, and tabulate (and with ``out_dir`` write)
+    its metrics.
+
+    Parameters
+    ----------
+    ref : str or Path
+        Bundled scenario name or TOML path.
+    varies : list of (field, texts)
+        From :func:`parse_vary`; zipped.
+    n_seeds : int
+        Runs per point, with seeds ``seed … seed + n_seeds − 1``.
+    metrics : list of str, optional
+        Metrics to tabulate; default every scalar metric.
+    overrides : iterable of str
+        ``key.path=value`` assignments applied to every run before the varied values.
+    out_dir : str or Path, optional
+        Folder for ``sweep.csv``, ``sweep.json`` and the plots (:func:`write_sweep_folder`).
+    plots : list of (x, y)
+        From :func:`parse_plot`; need ``out_dir``.
+    progress : bool
+        Progress bar per batch.
+
+    Returns
+    -------
+    SweepResult
+
+    Raises
+    ------
+    SweepError, ScenarioError
+        Before anything runs: bad ``--vary``, seeds, metric or plot names, or folder; a field or
+        value the scenario refuses.
+    """
+    fields = [f for f, _ in varies]
+    points = zip_points(varies)
+    texts = [list(column) for column in zip(*(t for _, t in varies))]
+    if plots and out_dir is None:
+        raise SweepError("--plot: needs --out DIR (the folder that receives the figures)")
+    if out_dir is not None:
+        check_sweep_folder(out_dir)
+    builds = prepare_runs(ref, _seeded(ref, list(overrides), points, n_seeds))
+    groups = group_runs(builds)
+    known = set().union(*(metric_names(builds[g[0]]) for g in groups))
+    _check_names(metrics, plots, known, fields, texts)
+    _interrupt.check()
+    datasets, compile_s, run_s = simulate_runs(builds, progress)
+    runs = []
+    for k, (built, ds) in enumerate(zip(builds, datasets)):
+        values, _ = analyse(built, ds, compare=False)
+        point = texts[k // n_seeds]
+        runs.append({
+            **{f: _parse_value(t) for f, t in zip(fields, point)},
+            "seed": built.scenario.seed,
+            **{m: v for m, v in values.items() if _is_scalar(v)},
+        })
+    if metrics is None:
+        metrics = [m for m in runs[0] if m not in fields and m != "seed" and all(m in r for r in runs)]
+    result = SweepResult(fields, texts, runs, summarise(runs, fields, metrics, n_seeds), list(metrics),
+                         len(groups), compile_s, run_s)
+    if out_dir is not None:
+        write_sweep_folder(out_dir, result, plots, ref)
+    return result
+
+
+def _csv_cell(value):
+    if value is None or (isinstance(value, float) and not np.isfinite(value)):
+        return ""
+    return json.dumps(value) if isinstance(value, (list, dict)) else value
+
+
+def _plot_values(result, name):
+    """(points, seeds) array of a metric or varied field."""
+    n = len(result.points)
+    return np.array([_number(r.get(name)) for r in result.runs], dtype=float).reshape(n, -1)
+
+
+def plot_file(x, y):
+    """File name of the ``--plot x:y`` figure."""
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", f"sweep_{x}_{y}") + ".png"
+
+
+def write_sweep_folder(out_dir, result, plots, ref):
+    """Write ``sweep.csv`` (one row per run), ``sweep.json`` (the points, the metrics, the
+    times) and one ``sweep_X_Y.png`` per plot, atomically: into a temporary sibling renamed
+    into place, so that a failure leaves nothing half-written; an existing sweep folder is
+    replaced only by a complete one."""
+    out_dir = Path(out_dir)
+    check_sweep_folder(out_dir)
+    try:
+        out_dir.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+        tmp.chmod(0o777 & ~_umask())
+    except OSError as err:
+        raise SweepError(f"--out {out_dir}: {err.strerror or err}") from None
+    try:
+        columns = [*result.fields, "seed", *result.metrics]
+        with open(tmp / "sweep.csv", "w", newline="", encoding="utf-8") as f:
+            writer = csv.writer(f)
+            writer.writerow(columns)
+            writer.writerows([_csv_cell(r.get(c)) for c in columns] for r in result.runs)
+        summary = {
+            "scenario": str(ref),
+            "fields": result.fields,
+            "seeds_per_point": len(result.points[0]["seeds"]),
+            "metrics": result.metrics,
+            "points": result.points,
+            "batches": result.n_batches,
+            "compile_s": result.compile_s,
+            "run_s": result.run_s,
+        }
+        (tmp / MARKER).write_text(json.dumps(_json_ready(summary), indent=2, allow_nan=False) + "\n")
+        if plots:
+            from coopsat.plots.sweep import sweep_figure
+
+            for x, y in plots:
+                fig = sweep_figure(_plot_values(result, x), _plot_values(result, y), x, y, title=str(ref))
+                fig.savefig(tmp / plot_file(x, y), dpi=120)
+        if out_dir.exists():
+            trash = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
+            out_dir.rename(trash / out_dir.name)
+            tmp.rename(out_dir)
+            shutil.rmtree(trash, ignore_errors=True)
+        else:
+            tmp.rename(out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out_dir
+
+
+def _cell(value):
+    return "null" if value is None or not np.isfinite(value) else f"{value:.4g}"
+
+
+def printed_metrics(result, chosen):
+    """The metrics the printed table shows: all when chosen, else at most
+    :data:`PRINTED_METRICS`, those that change across the runs first."""
+    if chosen:
+        return result.metrics
+    varying = [m for m in result.metrics if len({repr(r.get(m)) for r in result.runs}) > 1]
+    return (varying + [m for m in result.metrics if m not in varying])[:PRINTED_METRICS]
+
+
+def table_lines(result, metrics):
+    """The table of points: each varied field's value as given, then each metric (its value,
+    or ``mean / max`` over the seeds), in aligned columns."""
+    seeded = len(result.points[0]["seeds"]) > 1
+    header = [*result.fields, *metrics]
+    rows = [
+        [*texts, *(f"{_cell(p['mean'][m])} / {_cell(p['max'][m])}" if seeded else _cell(p["mean"][m]) for m in metrics)]
+        for texts, p in zip(result.texts, result.points)
+    ]
+    widths = [max(len(str(c)) for c in column) for column in zip(header, *rows)]
+    return ["  ".join(f"{c:<{w}}" for c, w in zip(line, widths)).rstrip() for line in [header, *rows]]

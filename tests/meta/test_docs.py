@@ -15,6 +15,7 @@ DOC = Path(__file__).resolve().parents[2] / "docs" / "scenarios.md"
 CORE_MODELS = [
     schema.Sim,
     schema.Elements,
+    schema.Relative,
     schema.SpacecraftDefaults,
     schema.Spacecraft,
     schema.Orbit,

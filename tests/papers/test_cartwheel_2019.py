@@ -74,7 +74,7 @@ def test_a_switch_naming_a_missing_spacecraft_is_one_clear_error():
         ('controller.deputies=["dep1", "chief"]', "exclude the chief"),
         ("sensors=[]", 'kind = "relative-navigation"'),
         ("controller.replan_every_s=2.5", "replan_every_s"),
-        ("controller.plan_horizon_s=5677.0", "whole number of orbits"),
+        ("controller.plan_horizon_s=3000.0", "singular at half an orbit"),
     ],
 )
 def test_bad_cartwheel_input_is_one_line(override, message):

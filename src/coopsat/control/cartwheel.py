@@ -13,9 +13,8 @@ with velocity ``ω × R``), and the target is their weighted mean. The command i
 ``F = −m K (x_i − x_target)`` with the discrete LQR gain K of the CW model, executed as whole
 impulse bits by the thrusters (:mod:`coopsat.actuators.impulse_bits`).
 
-Formation plane (the tilted circle, one definition): ``e1 = x̂``, ``e2 = (0, √3/2, −1/2)``,
-``e3 = e1 × e2 = (0, 1/2, √3/2)``; the circle is ``ρ (cos θ e1 + sin θ e2)`` and turns at
-``ω = n e3``.
+Formation plane: :data:`coopsat.dynamics.cw.PLANE_AXES_LVLH` (``e1 = x̂``, ``e2 = (0, √3/2,
+−1/2)``, ``e3 = e1 × e2``); the circle is ``ρ (cos θ e1 + sin θ e2)`` and turns at ``ω = n e3``.
 """
 
 from coopsat import _jax  # noqa: F401
@@ -25,33 +24,7 @@ import jax.numpy as jnp
 
 from coopsat._parts import OutputSpec, part
 from coopsat.control.pso import grid_minimize, pso_minimize
-from coopsat.dynamics.cw import cw_stm, transfer_impulse_l1
-
-_HALF_SQRT3 = 0.8660254037844386
-
-PLANE_AXES_LVLH = jnp.array([[1.0, 0.0, 0.0], [0.0, _HALF_SQRT3, 0.5], [0.0, -0.5, _HALF_SQRT3]])
-"""Columns ``e1, e2, e3``: the formation plane's axes and its normal, LVLH components."""
-
-
-def circle_state(rho_m, n_rad_s, t_s, phase_rad):
-    """State on the relative circle, ``[x, y, z, ẋ, ẏ, ż]`` (m, m/s), LVLH.
-
-    Parameters
-    ----------
-    rho_m, n_rad_s : scalar
-    t_s : scalar or array
-    phase_rad : scalar or array (broadcast with ``t_s``)
-
-    Returns
-    -------
-    jax.Array (..., 6)
-        ``x = ρ cos θ``, ``y = (√3/2) ρ sin θ``, ``z = −(ρ/2) sin θ``, ``θ = n t + φ`` (SPEC §2).
-    """
-    theta = n_rad_s * jnp.asarray(t_s) + jnp.asarray(phase_rad)
-    s, c = jnp.sin(theta), jnp.cos(theta)
-    pos = rho_m * jnp.stack([c, _HALF_SQRT3 * s, -0.5 * s], axis=-1)
-    vel = rho_m * n_rad_s * jnp.stack([-s, _HALF_SQRT3 * c, -0.5 * c], axis=-1)
-    return jnp.concatenate([pos, vel], axis=-1)
+from coopsat.dynamics.cw import PLANE_AXES_LVLH, cartwheel_state, cw_stm, transfer_impulse_l1
 
 
 def plane_rotation(delta_rad):
@@ -153,7 +126,7 @@ def allocation_cost_ns(psi_rad, x_now, phase_rad, mass_kg, use, t_s, rho_m, n_ra
         ``Σ_k m_k (‖Δv₁‖₁ + ‖Δv₂‖₁)`` of the CW two-impulse transfer from the present state
         to the circle point at ``t + horizon``: the thrusters fire per LVLH axis, so L1.
     """
-    target = circle_state(rho_m, n_rad_s, t_s + horizon_s, psi_rad[:, None] + phase_rad[None, :])  # (P, m, 6)
+    target = cartwheel_state(rho_m, n_rad_s, t_s + horizon_s, psi_rad[:, None] + phase_rad[None, :])  # (P, m, 6)
     impulse = transfer_impulse_l1(jnp.broadcast_to(x_now, target.shape), target, n_rad_s, horizon_s, mass_kg)
     return jnp.sum(impulse * use, axis=-1)
 
@@ -261,7 +234,7 @@ class CartwheelKeeping:
             psi = jnp.where(is_chief, planned[0], psi)
             plan_cost = jnp.where(is_chief, planned[1], plan_cost)
 
-        plan = circle_state(self.rho_m, self.n_rad_s, t, psi + self.phase_rad[i])
+        plan = cartwheel_state(self.rho_m, self.n_rad_s, t, psi + self.phase_rad[i])
         if self.targets == "planned":
             target = plan
         else:

@@ -65,28 +65,11 @@ def cw_stm(n_rad_s, t_s):
 
 
 def cartwheel_state(rho_m, n_rad_s, t_s, phase_rad):
-    """State on the SPEC §2 relative circle at time t.
+    """State on the SPEC §2 relative circle, ``(..., 6)``, as a numpy array.
 
-    Parameters
-    ----------
-    rho_m : float
-        Radius of the circle, m.
-    n_rad_s : float
-    t_s : float or ndarray (T,)
-    phase_rad : float or ndarray (k,)
-        φ of each spacecraft on the circle.
-
-    Returns
-    -------
-    ndarray (..., 6)
-        ``[x, y, z, ẋ, ẏ, ż]`` broadcast over t and φ.
+    One implementation: :func:`coopsat.dynamics.cw.cartwheel_state` (broadcast over t and φ).
     """
-    theta = n_rad_s * np.asarray(t_s, dtype=float) + np.asarray(phase_rad, dtype=float)
-    s, c = np.sin(theta), np.cos(theta)
-    half = np.sqrt(3.0) / 2.0
-    pos = rho_m * np.stack([c, half * s, -0.5 * s], axis=-1)
-    vel = rho_m * n_rad_s * np.stack([-s, half * c, -0.5 * c], axis=-1)
-    return np.concatenate([pos, vel], axis=-1)
+    return np.asarray(dynamics_cw.cartwheel_state(rho_m, n_rad_s, t_s, phase_rad))
 
 
 def deputy_phases(psi_rad, k=3):

@@ -164,3 +164,33 @@ def transfer_impulse_l1(x0, xf, n_rad_s, tof_s, mass_kg):
     """
     dv1, dv2 = cw_two_impulse(x0, xf, n_rad_s, tof_s)
     return mass_kg * (jnp.sum(jnp.abs(dv1), axis=-1) + jnp.sum(jnp.abs(dv2), axis=-1))
+
+
+_HALF_SQRT3 = 0.8660254037844386
+
+PLANE_AXES_LVLH = jnp.array([[1.0, 0.0, 0.0], [0.0, _HALF_SQRT3, 0.5], [0.0, -0.5, _HALF_SQRT3]])
+"""Columns ``e1, e2, e3``: the relative circle's plane (``e1 = x̂``, ``e2 = (0, √3/2, −1/2)``)
+and its normal ``e3 = e1 × e2``, LVLH components; the circle turns at ``ω = n e3``."""
+
+
+def cartwheel_state(rho_m, n_rad_s, t_s, phase_rad):
+    """State on the SPEC §2 relative circle ("cartwheel"), ``[x, y, z, ẋ, ẏ, ż]`` (m, m/s), LVLH.
+
+    Parameters
+    ----------
+    rho_m, n_rad_s : scalar
+    t_s : scalar or array
+    phase_rad : scalar or array (broadcast with ``t_s``)
+
+    Returns
+    -------
+    jax.Array (..., 6)
+        ``x = ρ cos θ``, ``y = (√3/2) ρ sin θ``, ``z = −(ρ/2) sin θ``, ``θ = n t + φ`` (SPEC §2):
+        an exact, bounded solution of the unforced CW equations with ``|r| = ρ``, in the plane
+        tilted 30° from the local horizontal.
+    """
+    theta = n_rad_s * jnp.asarray(t_s) + jnp.asarray(phase_rad)
+    s, c = jnp.sin(theta), jnp.cos(theta)
+    pos = rho_m * jnp.stack([c, _HALF_SQRT3 * s, -0.5 * s], axis=-1)
+    vel = rho_m * n_rad_s * jnp.stack([-s, _HALF_SQRT3 * c, -0.5 * c], axis=-1)
+    return jnp.concatenate([pos, vel], axis=-1)

@@ -25,6 +25,10 @@ CW_RADIUS_RATIO_MAX = 1e-3
 CW_ECCENTRICITY_MAX = 0.01
 """Chief eccentricity above which a circular-orbit (CW) design model is meaningless."""
 
+PLAN_HORIZON_MAX_RAD = 0.9 * math.pi
+"""Longest planner transfer, in radians of orbit: the two-impulse CW transfer's Φrv is singular
+at every half orbit (and at tan(nτ/2) = 3nτ/8 beyond), so keep clear below the first."""
+
 
 class CartwheelTable(Table):
     """``kind = "cartwheel-keeping"``: deputies keep a tilted relative circle around an uncontrolled chief (SPEC §2)."""
@@ -50,7 +54,7 @@ class CartwheelTable(Table):
     replan_every_s: float = Field(0.0, ge=0, le=MAX_TIME_S, description="Time between the chief's PSO solves of ψ, s (0: never).")
     psi_bound_deg: float = Field(0.01, gt=0, le=180, description="The PSO searches ψ within psi_deg ± this, deg.")
     plan_horizon_s: float = Field(
-        1000.0, gt=0, le=MAX_TIME_S, description="Transfer time of the planner's two-impulse cost, s (not a whole number of orbits)."
+        1000.0, gt=0, le=MAX_TIME_S, description="Transfer time of the planner's two-impulse cost, s (under 0.45 orbit)."
     )
     pso_particles: int = Field(16, ge=2, le=1000, description="PSO swarm size.")
     pso_iterations: int = Field(30, ge=1, le=10000, description="PSO iterations per solve.")
@@ -112,11 +116,10 @@ def design(table, ctx):
         replan = whole_ratio(table.replan_every_s, period)
         if replan is None:
             raise DesignError(f"controller.replan_every_s ({table.replan_every_s:g} s) must be a whole number of control periods ({period:g} s)")
-    orbits = table.plan_horizon_s * n / (2 * math.pi)
-    if round(orbits) >= 1 and abs(orbits - round(orbits)) < 0.05:
+    if table.plan_horizon_s * n > PLAN_HORIZON_MAX_RAD:
         raise DesignError(
-            f"controller.plan_horizon_s ({table.plan_horizon_s:g} s) is {orbits:.3f} orbits: a two-impulse CW transfer over a "
-            "whole number of orbits is singular; take another horizon"
+            f"controller.plan_horizon_s ({table.plan_horizon_s:g} s) must be under {PLAN_HORIZON_MAX_RAD / (2 * math.pi):.2f} "
+            f"orbit ({PLAN_HORIZON_MAX_RAD / n:.0f} s): the two-impulse CW transfer is singular at half an orbit"
         )
     phase = np.zeros(n_sc)
     phase[deputies] = 2 * np.pi * np.arange(len(deputies)) / len(deputies)

@@ -33,13 +33,13 @@ def _deputies(built):
 
 def ideal_states(ds, built, deputies):
     """Each deputy's point of the circle at the chief's ψ of every sample, (T, K, 6), LVLH."""
-    from coopsat.control.cartwheel import circle_state
+    from coopsat.dynamics.cw import cartwheel_state
 
     part = built.system.controller
     t = ds["time"].values
     psi = ds["psi_rad"].values[:, int(part.chief)]
     phases = psi[:, None] + np.asarray(part.phase_rad)[deputies]
-    return np.asarray(circle_state(float(part.rho_m), float(part.n_rad_s), t[:, None], phases))
+    return np.asarray(cartwheel_state(float(part.rho_m), float(part.n_rad_s), t[:, None], phases))
 
 
 def truth_errors(ds, built):

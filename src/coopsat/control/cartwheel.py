@@ -131,14 +131,14 @@ def allocation_cost_ns(psi_rad, x_now, phase_rad, mass_kg, use, t_s, rho_m, n_ra
     return jnp.sum(impulse * use, axis=-1)
 
 
-@part(static=("targets", "compensation", "replan_every", "particles", "iterations", "check_points"))
+@part(static=("period_s", "targets", "compensation", "replan_every", "particles", "iterations", "check_points"))
 class CartwheelKeeping:
     """One spacecraft's cartwheel keeping software (chief: planner only; deputies: keeping).
 
     Attributes
     ----------
-    rho_m, n_rad_s, period_s : scalar
-        Circle radius, m; the chief's mean motion, rad/s; control period, s.
+    rho_m, n_rad_s : scalar
+        Circle radius, m; the chief's mean motion, rad/s.
     phase_rad : (n,)
         Each spacecraft's offset on the circle ``2π(k − 1)/K`` (chief: 0).
     deputy : (n,)
@@ -153,6 +153,9 @@ class CartwheelKeeping:
         Planned phase ψ and the half-width of the interval the planner searches, rad.
     horizon_s : scalar
         Transfer time of the planner's cost, s.
+    period_s : float
+        Static: control period, s (the planner's schedule depends on time alone, so it stays
+        a branch in a batch of runs).
     targets : {"planned", "ring"}
         Static: the deputies' targets from the plan, or estimated from the ring (eqs. 7–11).
     compensation : {"none", "linear", "cw"}
@@ -168,7 +171,6 @@ class CartwheelKeeping:
 
     rho_m: jnp.ndarray
     n_rad_s: jnp.ndarray
-    period_s: jnp.ndarray
     phase_rad: jnp.ndarray
     deputy: jnp.ndarray
     chief: jnp.ndarray
@@ -178,6 +180,7 @@ class CartwheelKeeping:
     psi0_rad: jnp.ndarray
     psi_bound_rad: jnp.ndarray
     horizon_s: jnp.ndarray
+    period_s: float = 1.0
     targets: str = "ring"
     compensation: str = "cw"
     replan_every: int = 0

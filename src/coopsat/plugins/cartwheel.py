@@ -145,13 +145,13 @@ def design(table, ctx):
         if lonely:
             raise DesignError(f"network: deputy {lonely[0]} hears no neighbour in [network] to estimate its target from (targets = \"ring\")")
     part = {
-        "rho_m": table.radius_m, "n_rad_s": n, "period_s": period, "phase_rad": phase, "deputy": deputy,
+        "rho_m": table.radius_m, "n_rad_s": n, "phase_rad": phase, "deputy": deputy,
         "chief": np.int32(chief), "source_weight": weight, "gain": gain, "mass_kg": mass,
         "psi0_rad": math.radians(table.psi_deg), "psi_bound_rad": math.radians(table.psi_bound_deg),
         "horizon_s": table.plan_horizon_s,
     }
     static = {
-        "targets": table.targets, "compensation": table.delay_compensation, "replan_every": replan,
+        "period_s": float(period), "targets": table.targets, "compensation": table.delay_compensation, "replan_every": replan,
         "particles": table.pso_particles, "iterations": table.pso_iterations,
     }
     with np.errstate(divide="ignore"):

@@ -23,10 +23,9 @@ share a compiled program); ``jax.vmap`` over a batched System runs many at once.
 Python loop over ticks, spacecraft or edges.
 """
 
-import dataclasses
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 
 from coopsat import _interrupt, _jax  # noqa: F401
@@ -61,7 +60,7 @@ def _cm(a):
 def _engine_view(system):
     """The system with per-spacecraft plant arrays moved to the loop's component-major layout."""
     p = system.plant
-    return dataclasses.replace(system, plant=p._replace(inertia_kgm2=_cm(p.inertia_kgm2), inertia_inv=_cm(p.inertia_inv)))
+    return replace(system, plant=p._replace(inertia_kgm2=_cm(p.inertia_kgm2), inertia_inv=_cm(p.inertia_inv)))
 
 
 # --- integration ------------------------------------------------------------------------------
@@ -417,6 +416,22 @@ def _check_finite(samples, t_s, offset, batched, names=None):
             )
 
 
+def _shared_time_base(system):
+    """A batched system with its tick ``dt_s`` unbatched, and the matching ``vmap`` axes.
+
+    Raises
+    ------
+    ValueError
+        When the runs of the batch have different ticks (they cannot share a time base).
+    """
+    dt = np.asarray(system.dt_s)
+    if not np.all(dt == dt.flat[0]):
+        raise ValueError(f"simulate: the runs of a batch share one time base, but their dt_s differ ({sorted(set(dt.tolist()))})")
+    system = replace(system, dt_s=jnp.asarray(dt.flat[0]))
+    axes = replace(jax.tree_util.tree_map(lambda _: 0, system), dt_s=None)
+    return system, axes
+
+
 def simulate(system, n_records, record_interval_s, *, batched=False, progress=False, chunk=None, names=None):
     """Run the closed loop for ``n_records`` record intervals.
 
@@ -460,9 +475,16 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     final = _final_sample
     init = _initial_carry
     if batched:
-        run_chunk = jax.vmap(partial(_run_chunk, batched=True), in_axes=(0, 0, None, None, None))
-        final = jax.vmap(_final_sample)
-        init = jax.vmap(_initial_carry)
+        system, sys_axes = _shared_time_base(system)
+        # The tick stays unbatched too, so time (and every schedule indexed by it) is the same
+        # traced value for all runs: a branch on time (a planner due every so often) stays a
+        # branch under vmap instead of becoming a select that evaluates both sides every period.
+        carry_axes = (0, 0, 0, None)
+        run_chunk = jax.vmap(
+            partial(_run_chunk, batched=True), in_axes=(sys_axes, carry_axes, None, None, None), out_axes=(carry_axes, 0)
+        )
+        final = jax.vmap(_final_sample, in_axes=(sys_axes, carry_axes))
+        init = jax.vmap(_initial_carry, in_axes=(sys_axes,), out_axes=carry_axes)
     carry = init(system)
     t_s = np.arange(n_records + 1) * record_interval_s
 

@@ -25,6 +25,9 @@ import numpy as np
 
 from coopsat.analysis.metrics import arrival_time_s
 
+FIGURES = "coopsat.plots.cartwheel"
+"""Module with this paper's figures (Figs. 8–9 and the bits against time)."""
+
 
 def _deputies(built):
     part = built.system.controller

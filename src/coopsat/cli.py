@@ -233,7 +233,7 @@ def _cmd_topology(args):
         if compared:
             print("\nTable 1 of the cartwheel paper (SPEC §2), published beside ours:")
             for c in compared:
-                print(f"  {c['name']:<6}{c['quantity']:<23}{c['published']:>8g}{c['ours']:>11.6g}  {c['verdict']}"
+                print(f"  {c['name']:<9}{c['quantity']:<23}{c['published']:>8g}{c['ours']:>11.6g}  {c['verdict']}"
                       + (f": {c['reason']}" if c["reason"] else ""))
     return 0
 

@@ -8,7 +8,7 @@ Pure functions from a dataset and its built scenario to :class:`matplotlib.figur
 import numpy as np
 from matplotlib.figure import Figure
 
-from coopsat.analysis.papers.cartwheel_2019 import truth_errors
+from coopsat.analysis.papers.cartwheel_keeping import truth_errors
 
 _AXES = ("x (along-track)", "y (−orbit normal)", "z (nadir)")
 
@@ -40,7 +40,7 @@ def bits_figure(ds, built):
     fig = Figure(figsize=(7.0, 4.0), layout="constrained")
     ax = fig.add_subplot()
     for k, name in enumerate(built.names):
-        if bits[-1, k] > 0:
+        if k != int(built.system.controller.chief):
             ax.plot(t, bits[:, k], label=name)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("impulse bits fired (1e-5 N·s each)")

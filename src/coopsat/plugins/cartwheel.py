@@ -6,7 +6,7 @@ and velocity error and force), its target planned or estimated from its ring nei
 (eqs. 7–11), and the chief may re-allocate the formation's phase ψ on board by PSO
 (eqs. 15–16). The in-loop part is :class:`coopsat.control.cartwheel.CartwheelKeeping`; the
 design model is :mod:`coopsat.design.cw`; metrics and the comparison with the paper are in
-:mod:`coopsat.analysis.papers.cartwheel_2019`.
+:mod:`coopsat.analysis.papers.cartwheel_keeping`.
 """
 
 import math
@@ -17,7 +17,7 @@ from pydantic import Field
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
 from coopsat.plugins.tables import MAX_DISTANCE_M, MAX_FORCE_N, MAX_GAIN, MAX_SPEED_M_S, MAX_TIME_S, Table, whole_ratio
 
-ANALYSIS = "coopsat.analysis.papers.cartwheel_2019"
+ANALYSIS = "coopsat.analysis.papers.cartwheel_keeping"
 
 CW_RADIUS_RATIO_MAX = 1e-3
 """ρ/a above which the CW model's neglected terms (order ρ/a of the gravity difference) matter."""

@@ -86,3 +86,28 @@ def test_pulse_delivers_exactly_the_bits():
 def test_pulse_of_zero_and_single_bits(bits):
     level, t_on = bits_pulse(np.array([bits]), BIT, 1e-3)
     assert float(level[0] * t_on[0]) == pytest.approx(bits * BIT, abs=1e-20)
+
+
+def test_dropping_the_remainder_never_fires_below_half_a_bit_and_rounds_each_period_alone():
+    from coopsat.actuators.force_thrusters import ImpulseBitThrusters
+
+    carry = ImpulseBitThrusters(np.asarray(1e-5), np.asarray(1e-3), np.asarray(np.inf), carry=True)
+    drop = ImpulseBitThrusters(np.asarray(1e-5), np.asarray(1e-3), np.asarray(np.inf), carry=False)
+    # 0.4 bit per period: carried, it fires 2 bits every 5 periods; dropped, never.
+    command = np.full((3, 1), 0.4e-5)  # N over a 1 s period
+    fired = {}
+    for name, part in (("carry", carry), ("drop", drop)):
+        state, total = part.init(1), 0.0
+        for _ in range(50):
+            pulse, state = part.plan(command, None, state, 1.0, None)
+            total += float(np.asarray(part.account(pulse)["impulse_bits"])[0, 0])
+        fired[name] = total
+        if name == "drop":
+            np.testing.assert_array_equal(np.asarray(state), 0.0)
+    assert fired == {"carry": 20.0, "drop": 0.0}
+    # 0.6 bit per period rounds to one bit every period when dropped: 50 bits for 30 wanted.
+    state, total = drop.init(1), 0.0
+    for _ in range(50):
+        pulse, state = drop.plan(np.full((3, 1), 0.6e-5), None, state, 1.0, None)
+        total += float(np.asarray(drop.account(pulse)["impulse_bits"])[0, 0])
+    assert total == 50.0

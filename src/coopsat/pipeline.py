@@ -6,9 +6,6 @@ so a failed run (bad input, non-finite state) leaves nothing half-written.
 
 import importlib
 import json
-import os
-import shutil
-import tempfile
 import warnings
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -21,6 +18,7 @@ from coopsat import _interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import run_metrics
 from coopsat.analysis.papers import explainers, paper_metrics, paper_modules
+from coopsat.folders import atomic_folder, check_folder, json_ready
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
 from coopsat.scenarios.load import ScenarioError, load_scenario, resolved_toml
 
@@ -119,28 +117,6 @@ def analyse(built, ds, compare=True):
     return metrics, compare_published(sc.published, metrics, note, sc.sim.t_final_s, explainers(built))
 
 
-def _json_ready(obj):
-    """Plain JSON: NumPy scalars to Python, non-finite numbers to null (strict JSON has neither),
-    floats to 15 significant digits (so that 0.05·0.001/0.01 prints as 0.005, not
-    0.005000000000000001; float64 carries 15–17, the last ones rounding noise)."""
-    if isinstance(obj, dict):
-        return {k: _json_ready(v) for k, v in obj.items()}
-    if isinstance(obj, list):
-        return [_json_ready(v) for v in obj]
-    if isinstance(obj, np.generic):
-        obj = obj.item()
-    if isinstance(obj, float):
-        return float(f"{obj:.15g}") if np.isfinite(obj) else None
-    return obj
-
-
-def _umask():
-    """The process's file-mode creation mask (read by setting and restoring it)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 RUN_MARKER = "run.json"
 """Written into every run folder (what ran, when, with which coopsat): only a folder holding
 it is ever replaced by a new run."""
@@ -157,17 +133,7 @@ def check_run_folder(out_dir):
     ------
     RunFolderError
     """
-    out_dir = Path(out_dir)
-    if out_dir.exists() and not (out_dir.is_dir() and (out_dir / RUN_MARKER).is_file()):
-        raise RunFolderError(
-            f"--out {out_dir}: exists and is not a coopsat run folder (no {RUN_MARKER}); "
-            "choose another folder or remove it"
-        )
-    parent = out_dir.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK):
-        raise RunFolderError(f"--out {out_dir}: cannot create a folder under {parent}")
+    check_folder(out_dir, RUN_MARKER, "coopsat run", RunFolderError)
 
 
 def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
@@ -181,13 +147,7 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
     """
     out_dir = Path(out_dir)
     check_run_folder(out_dir)
-    try:
-        out_dir.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
-        tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it private (0700); a run folder follows the umask
-    except OSError as err:
-        raise RunFolderError(f"--out {out_dir}: {err.strerror or err}") from None
-    try:
+    with atomic_folder(out_dir, RunFolderError) as tmp:
         (tmp / RUN_MARKER).write_text(
             json.dumps(
                 {
@@ -201,9 +161,9 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
             + "\n"
         )
         ds.to_netcdf(tmp / "result.nc", engine="h5netcdf")
-        (tmp / "metrics.json").write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False) + "\n")
+        (tmp / "metrics.json").write_text(json.dumps(json_ready(metrics), indent=2, allow_nan=False) + "\n")
         if built.scenario.published:
-            (tmp / "comparison.json").write_text(json.dumps(_json_ready(rows), indent=2, allow_nan=False) + "\n")
+            (tmp / "comparison.json").write_text(json.dumps(json_ready(rows), indent=2, allow_nan=False) + "\n")
             (tmp / "comparison.md").write_text(comparison_markdown(rows, built.scenario.name))
         if figures:
             from coopsat.plots.figures import save_figures, standard_figures
@@ -213,16 +173,6 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
             for module in paper_modules(built):
                 if hasattr(module, "FIGURES"):
                     save_figures(importlib.import_module(module.FIGURES).figures(ds, built), tmp)
-        if out_dir.exists():
-            trash = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
-            out_dir.rename(trash / out_dir.name)
-            tmp.rename(out_dir)
-            shutil.rmtree(trash, ignore_errors=True)
-        else:
-            tmp.rename(out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out_dir
 
 

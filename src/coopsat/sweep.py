@@ -12,16 +12,15 @@ overrides.
 import csv
 import json
 import re
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from coopsat import _interrupt
-from coopsat.pipeline import _json_ready, _umask, analyse, metric_names, prepare
-from coopsat.scenarios.load import _parse_value, clip_echo, load_scenario
+from coopsat.folders import atomic_folder, check_folder, json_ready
+from coopsat.pipeline import analyse, metric_names, prepare
+from coopsat.scenarios.load import clip_echo, load_scenario, parse_value
 
 MARKER = "sweep.json"
 """Written into every sweep folder: only a folder holding it is replaced by a new sweep."""
@@ -258,10 +257,8 @@ def summarise(runs, fields, metrics, n_seeds):
 
 
 def check_sweep_folder(out_dir):
-    """Refuse, before anything runs, a target that exists and is not a sweep folder."""
-    out_dir = Path(out_dir)
-    if out_dir.exists() and not (out_dir.is_dir() and (out_dir / MARKER).is_file()):
-        raise SweepError(f"--out {out_dir}: exists and is not a sweep folder (no {MARKER}); choose another folder or remove it")
+    """Refuse, before anything runs, a target that is not a sweep folder or cannot be created."""
+    check_folder(out_dir, MARKER, "sweep", SweepError)
 
 
 def _check_names(metrics, plots, known, fields, texts):
@@ -272,7 +269,7 @@ def _check_names(metrics, plots, known, fields, texts):
     if unknown:
         raise SweepError(f"unknown metric '{clip_echo(unknown[0])}' (metrics of this scenario: {', '.join(sorted(known))})")
     for x, _ in plots:
-        if x in fields and not all(_is_number(_parse_value(t[fields.index(x)])) for t in texts):
+        if x in fields and not all(_is_number(parse_value(t[fields.index(x)])) for t in texts):
             raise SweepError(f"--plot {clip_echo(x)}: this field's values are not all numbers; plot against a metric")
 
 
@@ -340,7 +337,7 @@ def run_sweep(ref, varies, n_seeds=1, metrics=None, overrides=(), out_dir=None, 
         values, _ = analyse(built, ds, compare=False)
         point = texts[k // n_seeds]
         runs.append({
-            **{f: _parse_value(t) for f, t in zip(fields, point)},
+            **{f: parse_value(t) for f, t in zip(fields, point)},
             "seed": built.scenario.seed,
             **{m: v for m, v in values.items() if _is_scalar(v)},
         })
@@ -377,13 +374,7 @@ def write_sweep_folder(out_dir, result, plots, ref):
     replaced only by a complete one."""
     out_dir = Path(out_dir)
     check_sweep_folder(out_dir)
-    try:
-        out_dir.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
-        tmp.chmod(0o777 & ~_umask())
-    except OSError as err:
-        raise SweepError(f"--out {out_dir}: {err.strerror or err}") from None
-    try:
+    with atomic_folder(out_dir, SweepError) as tmp:
         columns = [*result.fields, "seed", *result.metrics]
         with open(tmp / "sweep.csv", "w", newline="", encoding="utf-8") as f:
             writer = csv.writer(f)
@@ -399,23 +390,13 @@ def write_sweep_folder(out_dir, result, plots, ref):
             "compile_s": result.compile_s,
             "run_s": result.run_s,
         }
-        (tmp / MARKER).write_text(json.dumps(_json_ready(summary), indent=2, allow_nan=False) + "\n")
+        (tmp / MARKER).write_text(json.dumps(json_ready(summary), indent=2, allow_nan=False) + "\n")
         if plots:
             from coopsat.plots.sweep import sweep_figure
 
             for x, y in plots:
                 fig = sweep_figure(_plot_values(result, x), _plot_values(result, y), x, y, title=str(ref))
                 fig.savefig(tmp / plot_file(x, y), dpi=120)
-        if out_dir.exists():
-            trash = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
-            out_dir.rename(trash / out_dir.name)
-            tmp.rename(out_dir)
-            shutil.rmtree(trash, ignore_errors=True)
-        else:
-            tmp.rename(out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out_dir
 
 

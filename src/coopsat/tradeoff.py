@@ -12,12 +12,11 @@ fuel of their Pareto fronts at the same settling time
 """
 
 import json
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from coopsat.folders import atomic_folder, check_folder
 from coopsat.analysis.tradeoff import matched_saving, pareto_front
 
 DEFAULT_SCALES_N = (0.03, 0.04, 0.05, 0.07, 0.1, 0.14, 0.2, 0.3)
@@ -161,8 +160,7 @@ def run_tradeoff(refs, out_dir, scales_n=DEFAULT_SCALES_N, coordinates=("hub", "
     (rows, comparisons, compile_s, run_s)
     """
     out_dir = Path(out_dir)
-    if out_dir.exists() and not (out_dir / "tradeoff.json").is_file():
-        raise TradeoffError(f"--out {out_dir}: exists and is not a tradeoff folder; choose another folder or remove it")
+    check_folder(out_dir, "tradeoff.json", "tradeoff", TradeoffError)
     if not scales_n or any(not (s > 0) for s in scales_n):
         raise TradeoffError(f"--scales: force scales must be positive numbers, got {list(scales_n)}")
     rows, middle, compile_s, run_s = [], [], 0.0, 0.0
@@ -175,9 +173,7 @@ def run_tradeoff(refs, out_dir, scales_n=DEFAULT_SCALES_N, coordinates=("hub", "
             compile_s += c
             run_s += t
     comparisons = compare(rows)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
-    try:
+    with atomic_folder(out_dir, TradeoffError) as tmp:
         (tmp / "tradeoff.json").write_text(
             json.dumps({"runs": rows, "comparisons": comparisons}, indent=2, default=lambda v: None) + "\n"
         )
@@ -187,10 +183,4 @@ def run_tradeoff(refs, out_dir, scales_n=DEFAULT_SCALES_N, coordinates=("hub", "
 
             tradeoff_figure(rows, comparisons).savefig(tmp / "tradeoff.png", dpi=120)
             fuel_time_figure(middle).savefig(tmp / "fuel_time.png", dpi=120)
-        if out_dir.exists():
-            shutil.rmtree(out_dir)
-        tmp.rename(out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return rows, comparisons, compile_s, run_s

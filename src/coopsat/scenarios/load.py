@@ -128,7 +128,7 @@ def deep_merge(base, child):
     return out
 
 
-def _parse_value(text):
+def parse_value(text):
     """A ``--set`` value as TOML (numbers, booleans, arrays, quoted strings), else a bare string."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
@@ -161,14 +161,14 @@ def apply_override(raw, assignment):
         if not isinstance(node, (dict, list)):
             raise ScenarioError(f"--set {clip_echo(key)}: {clip_echo(where)} is a value, not a table")
     last = parts[-1]
-    if last == "kind" and isinstance(node, dict) and _kind_changes(node, _parse_value(value.strip())):
+    if last == "kind" and isinstance(node, dict) and _kind_changes(node, parse_value(value.strip())):
         node.clear()  # another kind is another implementation: start its table afresh (as extends does)
     if isinstance(node, list):
         if not last.isdigit() or int(last) >= len(node):
             raise ScenarioError(f"--set {clip_echo(key)}: {clip_echo(last)} is not an index of a list of {len(node)}")
-        node[int(last)] = _parse_value(value.strip())
+        node[int(last)] = parse_value(value.strip())
     else:
-        node[last] = _parse_value(value.strip())
+        node[last] = parse_value(value.strip())
 
 
 def _merge_defaults(raw):

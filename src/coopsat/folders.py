@@ -1,0 +1,88 @@
+"""Output folders written atomically, and the JSON they hold.
+
+Every command that writes a folder (``run``, ``sweep``, ``tradeoff``) fills a temporary sibling
+and renames it into place only once it is complete, so that a failure or an interrupt leaves
+nothing half-written, and an existing folder is replaced only by a complete one.
+"""
+
+import os
+import shutil
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+
+def json_ready(obj):
+    """Plain JSON: NumPy scalars to Python, non-finite numbers to null (strict JSON has neither),
+    floats to 15 significant digits (so that 0.05·0.001/0.01 prints as 0.005, not
+    0.005000000000000001; float64 carries 15–17, the last ones rounding noise)."""
+    if isinstance(obj, dict):
+        return {k: json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [json_ready(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float):
+        return float(f"{obj:.15g}") if np.isfinite(obj) else None
+    return obj
+
+
+def _umask():
+    """The process's file-mode creation mask (read by setting and restoring it)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def check_folder(out_dir, marker, what, error):
+    """Refuse, before anything runs, a target that is not a ``what`` folder (one holding
+    ``marker``) or cannot be created.
+
+    Raises
+    ------
+    error
+        The caller's exception class, with one line naming ``--out`` and the cause.
+    """
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not (out_dir.is_dir() and (out_dir / marker).is_file()):
+        raise error(f"--out {out_dir}: exists and is not a {what} folder (no {marker}); choose another folder or remove it")
+    parent = out_dir.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK):
+        raise error(f"--out {out_dir}: cannot create a folder under {parent}")
+
+
+@contextmanager
+def atomic_folder(out_dir, error):
+    """Yield a temporary sibling of ``out_dir`` to fill; on success it replaces ``out_dir``, on
+    any exception (an interrupt included) it is removed and ``out_dir`` is left as it was.
+
+    Raises
+    ------
+    error
+        When the temporary folder cannot be created (the caller's exception class).
+    """
+    out_dir = Path(out_dir)
+    try:
+        out_dir.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+        tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it private (0700); an output folder follows the umask
+    except OSError as err:
+        raise error(f"--out {out_dir}: {err.strerror or err}") from None
+    try:
+        yield tmp
+        if out_dir.exists():
+            # Move the old folder aside first, so that the new one is in place before the old
+            # one is deleted (a crash in between leaves a hidden sibling, never no folder).
+            trash = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
+            out_dir.rename(trash / out_dir.name)
+            tmp.rename(out_dir)
+            shutil.rmtree(trash, ignore_errors=True)
+        else:
+            tmp.rename(out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

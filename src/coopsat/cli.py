@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|margin|design|topology|tradeoff|sweep|bench``.
+"""Command line: ``coopsat list|show|validate|run|margin|design|topology|tradeoff|sweep|tune|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -22,8 +22,9 @@ def _input_errors():
     from coopsat.sim.engine import NonFiniteStateError
     from coopsat.sweep import SweepError
     from coopsat.tradeoff import TradeoffError
+    from coopsat.tune import TuneError
 
-    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError)
+    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError)
 
 
 def _cmd_list(args):
@@ -289,6 +290,25 @@ def _cmd_sweep(args):
     return 0
 
 
+def _cmd_tune(args):
+    from pathlib import Path
+
+    from coopsat.tune import MARKER, TuneError, check_folder, report_lines, tune, write_tune_folder
+
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        check_folder(out, MARKER, "tune", TuneError)  # before minutes of work, not after
+    report = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    result = tune(args.scenario, args.objective, args.constraint, args.params, overrides=args.set, starts=args.starts,
+                  spread=args.spread, max_iter=args.max_iter, seed=args.seed, report=report)
+    for line in report_lines(result):
+        print(line)
+    if out is not None:
+        write_tune_folder(out, result)
+        print(f"wrote {out}/tuned.toml, tune.md, tune.json")
+    return 0
+
+
 def _cmd_bench(args):
     from coopsat.bench import run_benchmarks
 
@@ -378,6 +398,25 @@ def build_parser():
     sweep.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help + "; applied to every run")
     sweep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     sweep.set_defaults(func=_cmd_sweep)
+
+    tn = sub.add_parser(
+        "tune", help="tune scenario fields (gains) by gradient through the closed loop, then re-run it exactly",
+        description="Minimise a run metric over continuous scenario fields under constraints on others, with JAX "
+        "gradients of the whole closed loop (smooth surrogates stand in for dead zones, saturation and threshold "
+        "times; docs/tuning.md); the tuned scenario is re-run on the exact loop and those figures are reported.",
+    )
+    tn.add_argument("scenario", help="bundled scenario name or path to a .toml file")
+    tn.add_argument("--objective", required=True, metavar="METRIC", help="metric to minimise (e.g. fuel_l1_ns, sync_time_s)")
+    tn.add_argument("--constraint", action="append", default=[], metavar="METRIC<=VALUE", help="a constraint (repeatable)")
+    tn.add_argument("--params", nargs="+", required=True, metavar="PATH", help="fields to tune (controller.alpha controller.beta)")
+    tn.add_argument("--starts", type=int, default=1, help="initial points, evaluated together in one vmap (default 1)")
+    tn.add_argument("--spread", type=float, default=0.3, help="relative spread of the drawn starts (default 0.3)")
+    tn.add_argument("--max-iter", type=int, default=50, help="SLSQP iterations (default 50)")
+    tn.add_argument("--seed", type=int, default=0, help="seed of the drawn starts")
+    tn.add_argument("--out", metavar="DIR", help="folder for tuned.toml, tune.md and tune.json")
+    tn.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    tn.add_argument("--quiet", "-q", action="store_true", help="no per-iteration lines")
+    tn.set_defaults(func=_cmd_tune)
 
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")

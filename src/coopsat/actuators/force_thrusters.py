@@ -21,6 +21,7 @@ import jax.numpy as jnp
 from coopsat._parts import OutputSpec, part
 from coopsat.actuators.impulse_bits import bits_pulse, quantise_impulse
 from coopsat.actuators.pulses import Pulse
+from coopsat.actuators.smooth import soft_clip, soft_deadzone
 from coopsat.actuators.thrusters import deadzone_thrust
 
 FRAMES = {"lvlh": ("force_lvlh", "LVLH"), "body": ("force_b", "body"), "inertial": ("force_eci", "ECI")}
@@ -172,8 +173,18 @@ class ProportionalThrusters(_ForceActuator):
 
     def account(self, pulse):
         """Impulse counters, and ``∫‖F‖₂ dt`` (the force is held over the whole period)."""
-        norm = jnp.sqrt(jnp.sum(pulse.level_nm**2, axis=0)) * pulse.t_off_s[0]
+        sq = jnp.sum(pulse.level_nm**2, axis=0)
+        # The inner where keeps the derivative of the norm finite at zero force (a gradient
+        # through the run would otherwise meet 0·∞).
+        norm = jnp.where(sq > 0.0, jnp.sqrt(jnp.where(sq > 0.0, sq, 1.0)), 0.0) * pulse.t_off_s[0]
         return {**force_impulse_increments(pulse), "norm_force_impulse": norm}
+
+    def surrogate(self):
+        """The smooth stand-in used for gradients (:mod:`coopsat.actuators.smooth`), and what it is."""
+        return SmoothProportionalThrusters(self.force_min_n, self.force_max_n, self.frame, self.command), (
+            "proportional thrusters: dead zone smoothed by a logistic step 0.25·force_min_n wide, "
+            "limit rounded over 0.01·force_max_n (softplus)"
+        )
 
     def output_specs(self):
         return {
@@ -182,3 +193,14 @@ class ProportionalThrusters(_ForceActuator):
                 (), "N s", "", "cumulative ∫‖F‖₂ dt of the thrusters (the 2-norm fuel measure), from t = 0 to the sample"
             ),
         }
+
+
+@part(static=("frame", "command"))
+class SmoothProportionalThrusters(ProportionalThrusters):
+    """:class:`ProportionalThrusters` with the dead zone and the limit smoothed, for gradients
+    only (``coopsat tune``; :func:`~coopsat.actuators.smooth.soft_deadzone` 0.25·force_min_n
+    wide, :func:`~coopsat.actuators.smooth.soft_clip` over 0.01·force_max_n)."""
+
+    def plan(self, command, x, state, period_s, key):
+        level = soft_clip(soft_deadzone(command, self.force_min_n, 0.25 * self.force_min_n), self.force_max_n, 0.01 * self.force_max_n)
+        return Pulse(level, jnp.full_like(level, period_s)), state

@@ -5,6 +5,7 @@ from coopsat import _jax  # noqa: F401
 import jax.numpy as jnp
 
 from coopsat._parts import part
+from coopsat.actuators.smooth import soft_clip
 from coopsat.actuators.pulses import IMPULSE_OUTPUTS, Pulse, torque_impulse_increments
 
 
@@ -57,5 +58,19 @@ class IdealTorque:
     def account(self, pulse):
         return torque_impulse_increments(pulse)
 
+    def surrogate(self):
+        """The smooth stand-in used for gradients, and what it is."""
+        return SmoothIdealTorque(self.torque_max_nm, self.command), "ideal torque: saturation rounded over 0.01·torque_max_nm (softplus)"
+
     def output_specs(self):
         return dict(IMPULSE_OUTPUTS)
+
+
+@part(static=("command",))
+class SmoothIdealTorque(IdealTorque):
+    """:class:`IdealTorque` with its saturation rounded over 0.01·torque_max_nm, for gradients
+    only (``coopsat tune``; :func:`~coopsat.actuators.smooth.soft_clip`)."""
+
+    def plan(self, command, x, state, period_s, key):
+        level = soft_clip(command, self.torque_max_nm, 0.01 * self.torque_max_nm)
+        return Pulse(level, jnp.full_like(level, period_s)), state

@@ -112,6 +112,26 @@ class BuildContext:
 
 
 @dataclass(frozen=True)
+class Tunable:
+    """A scenario field that ``coopsat tune`` may vary by gradient.
+
+    Attributes
+    ----------
+    value : ndarray
+        Its value in this run (the table's, or what the design computed from it).
+    apply : callable
+        ``(part, value) -> part``: the built part with ``value`` in place; pure JAX (traced),
+        so that the run is differentiable with respect to ``value``.
+    write : callable
+        ``value -> dict``: the fields of the plug-in's table that the tuned scenario file sets.
+    """
+
+    value: object
+    apply: object
+    write: object
+
+
+@dataclass(frozen=True)
 class Plugin:
     """One registered kind.
 
@@ -129,6 +149,9 @@ class Plugin:
         ``(table, ctx) -> DesignCheck or None``, run after building.
     analysis : str or None
         Module with the paper's metrics and explanations (see :mod:`coopsat.analysis.papers`).
+    tunables : callable or None
+        ``(table, ctx, part) -> dict of field name -> Tunable``: the continuous fields a
+        gradient may vary (gains, weights), and how each enters the built part.
     """
 
     role: str
@@ -137,6 +160,7 @@ class Plugin:
     build: object
     checks: tuple = ()
     analysis: str | None = None
+    tunables: object = None
 
 
 _REGISTRY = {role: {} for role in ROLES}

@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from coopsat.plugins import DesignCheck, DesignError, Plugin, register
+from coopsat.plugins import DesignCheck, DesignError, Plugin, Tunable, register
 from coopsat.plugins.tables import MAX_GAIN, MAX_RATE_RAD_S, Bounded3, Quat, Table
 
 MAX_CHECKED_SPACECRAFT = 60
@@ -166,5 +166,16 @@ def check_sampled_data(table, ctx):
     return [*checks, DesignCheck("sampled-data", worst.stable, note, metrics, worst)]
 
 
+def tunables(table, ctx, part):
+    """α and β (and K, D for tracking) enter the law as they are."""
+    from dataclasses import replace
+
+    names = ("alpha", "beta", "k_p", "k_d") if table.kind == "consensus-track" else ("alpha", "beta")
+    return {
+        name: Tunable(float(getattr(table, name)), lambda p, v, name=name: replace(p, **{name: v}), lambda v, name=name: {name: float(v)})
+        for name in names
+    }
+
+
 for _kind, _table in (("consensus-sync", ConsensusSync), ("consensus-track", ConsensusTrack)):
-    register(Plugin("controller", _kind, _table, _build, (check_spanning_tree, check_sampled_data), ANALYSIS))
+    register(Plugin("controller", _kind, _table, _build, (check_spanning_tree, check_sampled_data), ANALYSIS, tunables))

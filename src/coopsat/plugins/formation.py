@@ -17,7 +17,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from coopsat.plugins import DesignCheck, DesignError, Plugin, register
+from coopsat.plugins import DesignCheck, DesignError, Plugin, Tunable, register
 from coopsat.plugins.tables import MAX_DISTANCE_M, MAX_FORCE_N, MAX_SPEED_M_S, Table
 
 ANALYSIS = "coopsat.analysis.papers.deep_space_2008"
@@ -33,8 +33,14 @@ class FormationObserverTable(Table):
 
     kind: Literal["formation-observer"]
     period_s: float = Field(gt=0, le=1e5, description="Control period (zero-order hold), s.")
-    design: Literal["lmi", "lqr"] = Field(
-        description="lmi: min-γ guaranteed-cost LMI (paper eq. 11); lqr: Riccati LQR with non-zero set point (eq. 17)."
+    design: Literal["lmi", "lqr", "gain"] = Field(
+        description="lmi: min-γ guaranteed-cost LMI (paper eq. 11); lqr: Riccati LQR with non-zero set point (eq. 17); "
+        "gain: the state feedback given in `gain` (e.g. written by `coopsat tune`), with u_ff = −K x_ref."
+    )
+    gain: list[list[Annotated[float, Field(ge=-1e6, le=1e6)]]] | None = Field(
+        None,
+        description="design = gain: state-feedback gain K (N per m and per m/s of the relative coordinates), "
+        "(n·d) rows × 2(n−1)d columns; u = K (x̂ − x_ref).",
     )
     architecture: Literal["decentralized", "centralized"] | None = Field(
         None,
@@ -160,7 +166,11 @@ def _design(table, ctx, force_scale_n=None):
         )
         x_ref = fd.reference_state(dec, target)
         x_start = fd.reference_state(dec, p0)
-        if table.design == "lmi":
+        if table.design == "gain":
+            gain = None
+            k = _given_gain(table, n * d, 2 * ny)
+            u_ff = -k @ x_ref
+        elif table.design == "lmi":
             e0 = float(np.linalg.norm(x_start - x_ref)) or 1.0
             gain = fd.lmi_state_feedback(dec.a_o, dec.b_o, q, r, np.eye(2 * ny) / e0**2, objective=table.lmi_objective)
             k = gain.gain
@@ -213,9 +223,21 @@ def _design(table, ctx, force_scale_n=None):
     bottom = np.hstack([m["gamma_y"] @ c_y, m["phi"] + m["gamma_u"] @ m["c_u"]])
     radius = float(np.max(np.abs(np.linalg.eigvals(np.vstack([top, bottom])))))
     return {
-        "part": part, "gain": gain, "observer": observer, "centroid": centroid, "x_ref": x_ref, "p0": p0,
+        "part": part, "k": k, "gain": gain, "observer": observer, "centroid": centroid, "x_ref": x_ref, "p0": p0,
         "target": target, "decomposition": dec, "closed_loop_radius": radius, "axes": axes,
     }
+
+
+def _given_gain(table, rows, cols):
+    """``table.gain`` as an array, checked against the design's shape."""
+    import numpy as np
+
+    if table.gain is None:
+        raise DesignError("controller.gain: design = \"gain\" needs the state-feedback gain `gain`")
+    k = np.asarray(table.gain, dtype=float)
+    if k.ndim != 2 or k.shape != (rows, cols):
+        raise DesignError(f"controller.gain: needs {rows} rows (spacecraft × design axes) of {cols} numbers, got shape {k.shape}")
+    return k
 
 
 def _observer(dec, c_y, omega):
@@ -263,7 +285,7 @@ def check_design(table, ctx):
     out = design(table, ctx)
     radius = out["closed_loop_radius"]
     metrics = {"closed_loop_spectral_radius": radius}
-    if table.design == "lmi":
+    if table.design == "lmi" and out["gain"] is not None:
         metrics["lmi_gamma"] = out["gain"].gamma
     ok = radius < 1.0
     what = f"{table.design} ({_architecture(table)}, {table.coordinates} coordinates, {table.objective})"
@@ -291,4 +313,30 @@ def check_centroid(table, ctx):
     return DesignCheck("centroid-target", ok, note, {"target_centroid_offset_m": shift})
 
 
-register(Plugin("controller", "formation-observer", FormationObserverTable, _build, (check_design, check_centroid), ANALYSIS))
+def tunables(table, ctx, part):
+    """``gain``: the state feedback K (n·d × 2(n−1)d) of any design; the observer, the
+    coordinates and the set point stay (u_ff = −K x_ref, the centroid-holding projection kept).
+
+    The tuned file says ``design = "gain"`` with K: a spacecraft still computes its own rows
+    from its own observer's estimate of every relative coordinate (the decentralized design's
+    information)."""
+    from dataclasses import replace
+
+    import jax.numpy as jnp
+    import numpy as np
+
+    from coopsat.design.formation import common_mode_projector
+
+    out = design(table, ctx)
+    k0, x_ref = out["k"], jnp.asarray(out["x_ref"])
+    n, d = out["p0"].shape
+    # Centroid holding removes the common-mode force from the law (as the design does).
+    proj = jnp.asarray(np.eye(n * d) if table.objective == "minimum-fuel" else common_mode_projector(n, d))
+
+    def apply(p, k):
+        return replace(p, c_u=p.c_u.at[:, : k.shape[1]].set(proj @ k), u_ff=proj @ (-k @ x_ref))
+
+    return {"gain": Tunable(np.asarray(k0), apply, lambda k: {"design": "gain", "gain": np.asarray(k).tolist()})}
+
+
+register(Plugin("controller", "formation-observer", FormationObserverTable, _build, (check_design, check_centroid), ANALYSIS, tunables))

@@ -152,7 +152,7 @@ def _translational_states(spacecraft, orbit):
     return out
 
 
-def _scenario_tables(scenario):
+def scenario_tables(scenario):
     """(role, place in the file, table) of every plug-in table of the scenario."""
     acts = scenario.actuator_list
     act_places = ["actuators"] if not isinstance(scenario.actuators, list) else [f"actuators[{k}]" for k in range(len(acts))]
@@ -243,7 +243,7 @@ def build(scenario):
 
     parts = {"controller": [], "network": [], "sensor": [], "actuator": [], "disturbance": []}
     used, checks = [], {}
-    for role, place, table in _scenario_tables(scenario):
+    for role, place, table in scenario_tables(scenario):
         plugin = plugin_for(role, table)
         try:
             parts[role].append(plugin.build(table, ctx))

@@ -540,3 +540,31 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     specs = output_specs(system)
     samples = {k: np.moveaxis(v, -1, axis + 1) if specs[k].per_spacecraft else v for k, v in samples.items()}
     return RunOutput(t_s=t_s, samples=samples, compile_s=compile_s, run_s=run_s)
+
+
+def run_samples(system, n_records):
+    """Every sample of one run as a pure function of ``system``: differentiable end to end.
+
+    The same closed loop as :func:`simulate` (one ``lax.scan`` over all ``n_records`` record
+    intervals, then the final sample), without chunks, progress or NumPy conversion, so that
+    ``jax.grad``/``jax.jvp`` of a metric of the samples with respect to any data leaf of
+    ``system`` (a gain, a weight) goes through the whole run. Used by ``coopsat tune``.
+
+    Parameters
+    ----------
+    system : System
+        One run (not a batch; ``jax.vmap`` this function to batch).
+    n_records : int
+        Record intervals (static).
+
+    Returns
+    -------
+    dict of str -> jax.Array
+        Each ``(n_records + 1, n_spacecraft, k…)`` for per-spacecraft outputs (interface
+        layout, as :class:`RunOutput` samples), ``(n_records + 1, k…)`` for the others.
+    """
+    carry, out = _run_chunk(system, _initial_carry(system), 0, n_records, n_records)
+    last = _final_sample(system, carry)
+    specs = output_specs(system)
+    samples = {k: jnp.concatenate([out[k], last[k][None]], axis=0) for k in last}
+    return {k: jnp.moveaxis(v, -1, 1) if specs[k].per_spacecraft else v for k, v in samples.items()}

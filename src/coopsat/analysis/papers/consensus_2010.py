@@ -15,6 +15,7 @@ from coopsat.analysis.metrics import (
     quat_angle_between_deg,
     settle_time_s,
 )
+from coopsat.analysis.surrogates import Surrogate, settled_by, time_weighted_error
 from coopsat.scenarios.build import inertia_matrix
 
 
@@ -135,3 +136,36 @@ EXPLAINERS = {
     "_spin_down_time_s": _spin_down_explanation,
 }
 """Explanations of a difference, by metric name or name suffix."""
+
+
+def _sync_error(samples, built):
+    """The synchronisation test's largest ratio to its tolerance at each sample, (T,) (JAX):
+    ``max(pairwise attitude error / sync_attitude_deg, pairwise rate difference /
+    sync_rate_rad_s)``; < 1 is synchronised (as :func:`metrics` counts it)."""
+    import jax.numpy as jnp
+
+    from coopsat.analysis.metrics import EXACT_PAIRS_MAX_N
+    from coopsat.geometry.quaternion import quat_error
+
+    a = built.scenario.analysis
+    q, omega = samples["q"], samples["omega"]
+    n = q.shape[1]
+    if n <= EXACT_PAIRS_MAX_N:
+        i, j = np.triu_indices(n, k=1)
+    else:
+        i, j = np.arange(1, n), np.zeros(n - 1, dtype=int)
+    qe = quat_error(q[:, i], q[:, j])
+    # The angle 2·atan2(|vec|, |q0|), with |vec| smoothed at 0 so that its gradient stays finite.
+    angle = 2.0 * jnp.arctan2(jnp.sqrt(jnp.sum(qe[..., 1:] ** 2, axis=-1) + 1e-30), jnp.abs(qe[..., 0]))
+    rate = jnp.sqrt(jnp.sum((omega[:, i] - omega[:, j]) ** 2, axis=-1) + 1e-30)
+    return jnp.maximum(jnp.max(angle, axis=-1) / np.radians(a.sync_attitude_deg), jnp.max(rate, axis=-1) / a.sync_rate_rad_s)
+
+
+SURROGATES = {
+    "sync_time_s": Surrogate(
+        lambda s, t, b: time_weighted_error(t, _sync_error(s, b)),
+        lambda s, t, b, bound: settled_by(t, _sync_error(s, b), bound),
+        "objective: ∫t·e(t)dt/∫t dt (ITAE) of e = max(attitude spread / sync_attitude_deg, rate spread / sync_rate_rad_s); "
+        "constraint: log-sum-exp of e over the samples at or after the bound, ≤ 1",
+    ),
+}

@@ -19,6 +19,7 @@ the same settling time (:mod:`coopsat.analysis.tradeoff`).
 import numpy as np
 
 from coopsat.analysis.metrics import settle_time_s
+from coopsat.analysis.surrogates import Surrogate, settled_by, time_weighted_error
 
 FIGURES = "coopsat.plots.formation"
 """Module with this paper's figures (``figures(ds, built) -> {stem: Figure}``); the pipeline
@@ -107,3 +108,54 @@ def metrics(ds, built):
 EXPLAINERS = {}
 """No bundled deep-space scenario compares a single run with a published number: the paper's
 10.6 % is a paired claim, judged by ``coopsat tradeoff``."""
+
+
+def _formation_error(samples, built):
+    """:func:`formation_error_m` in JAX on the run's samples, (T,), m."""
+    import jax.numpy as jnp
+
+    from coopsat.plugins.formation import PLANES
+
+    table = built.scenario.controller
+    axes = list(PLANES[table.plane])
+    target = np.asarray(table.target_m, dtype=float)
+    goal = np.zeros((target.shape[0], 3))
+    goal[:, axes] = target - target.mean(axis=0)
+    r = samples["r_eci"]
+    rel = r - r.mean(axis=1, keepdims=True)
+    # A smooth largest distance over spacecraft (the exact metric's max), in metres.
+    dist = jnp.sqrt(jnp.sum((rel - goal) ** 2, axis=-1) + 1e-12)
+    return jnp.max(dist, axis=-1)
+
+
+def _fuel(samples, t_s, built):
+    return samples["abs_force_impulse"][-1].sum()
+
+
+def _settling_constraint(samples, t_s, built, bound_s):
+    return settled_by(t_s, _formation_error(samples, built) / built.scenario.analysis.formation_tolerance_m, bound_s)
+
+
+def _settling_objective(samples, t_s, built):
+    return time_weighted_error(t_s, _formation_error(samples, built))
+
+
+def _final_error_constraint(samples, t_s, built, bound_m):
+    return _formation_error(samples, built)[-1] / bound_m - 1.0
+
+
+SURROGATES = {
+    "fuel_l1_ns": Surrogate(
+        _fuel, lambda s, t, b, bound: _fuel(s, t, b) / bound - 1.0,
+        "Σ∫|F| dt from the thrusters' counter, on the smoothed thrusters", exact_in_metric_units=True,
+    ),
+    "settling_time_s": Surrogate(
+        _settling_objective, _settling_constraint,
+        "objective: ∫t·e(t)dt/∫t dt of the formation error e (ITAE); constraint: log-sum-exp of e/tolerance over "
+        "the samples at or after the bound, ≤ 1 (an upper bound of the max: slightly conservative)",
+    ),
+    "formation_error_final_m": Surrogate(
+        lambda s, t, b: _formation_error(s, b)[-1], _final_error_constraint,
+        "the formation error at the last sample (the metric itself, on the smoothed loop)", exact_in_metric_units=True,
+    ),
+}

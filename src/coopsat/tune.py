@@ -1,0 +1,545 @@
+"""``coopsat tune``: gradient design through the compiled closed loop.
+
+The scenario fields named by ``--params`` (gains, weights: each plug-in says which of its
+fields are continuous and how they enter its part, :class:`coopsat.plugins.Tunable`) become
+traced values of one differentiable run (:func:`coopsat.sim.engine.run_samples`). The run's
+actuators are replaced by their smooth surrogates where they have one (a dead zone and a
+saturation have no useful derivative), and the objective and constraints by their metrics'
+smooth stand-ins (:mod:`coopsat.analysis.surrogates`). SciPy's SLSQP minimises the objective
+under the constraints with JAX gradients; several starts run as one ``vmap`` and the best
+feasible one is kept. The tuned scenario is then re-run on the exact loop and every figure
+reported is the exact loop's, beside the surrogate's, so the cost of the surrogate is a number.
+
+Parametrisation: a positive scalar (a consensus gain) is tuned as ``θ0·e^z`` so that it stays
+positive; an array (a gain matrix) as ``θ0 + s ⊙ z`` with ``s`` the size of its entries (at
+least 5 % of the largest), so that every variable is of order one. The objective is divided
+by its value at the scenario's own parameters.
+"""
+
+import json
+import re
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from coopsat.analysis.surrogates import surrogates
+from coopsat.folders import atomic_folder, check_folder, json_ready
+from coopsat.pipeline import analyse, prepare, simulate_built
+from coopsat.plugins import plugin_for
+from coopsat.scenarios.build import scenario_tables
+from coopsat.scenarios.load import ScenarioError, clip_echo, load_scenario, resolved_toml
+
+MARKER = "tune.json"
+"""Written into every tune folder: only a folder holding it is replaced by a new tuning."""
+
+
+LOG_BOUND = 3.0
+"""Bound on the variable of a positive scalar tuned as ``θ0·e^z``: ``|z| ≤ 3``."""
+
+
+class TuneError(ValueError):
+    """A tuning that cannot be run as asked (one line)."""
+
+
+@dataclass(frozen=True)
+class Param:
+    """One tuned field: where it is, its tunable, and how it is scaled.
+
+    Attributes
+    ----------
+    path : str
+        As given (``controller.alpha``, ``actuators.0.torque_max_nm``).
+    place : str
+        The table's place in the scenario file as an override prefix (``controller``).
+    role : str
+    index : int
+        Position of the part among the parts of its role.
+    name : str
+        The table field.
+    tunable : coopsat.plugins.Tunable
+    log : bool
+        Tuned as ``θ0·e^z`` (a positive scalar), else ``θ0 + scale·z``.
+    scale : ndarray
+    """
+
+    path: str
+    place: str
+    role: str
+    index: int
+    name: str
+    tunable: object
+    log: bool
+    scale: np.ndarray
+
+    @property
+    def size(self):
+        return int(np.size(self.tunable.value))
+
+    def value(self, z):
+        """The field's value for the variables ``z`` (JAX or NumPy), shape of the field."""
+        import jax.numpy as jnp
+
+        v0 = jnp.asarray(self.tunable.value, dtype=float)
+        z = jnp.reshape(z, v0.shape)
+        return v0 * jnp.exp(z) if self.log else v0 + jnp.asarray(self.scale) * z
+
+
+@dataclass(frozen=True)
+class Spec:
+    """An objective (``bound`` None) or a constraint ``metric <= bound``."""
+
+    metric: str
+    bound: float | None = None
+
+    def __str__(self):
+        return self.metric if self.bound is None else f"{self.metric}<={self.bound:g}"
+
+
+def parse_constraint(text):
+    """``METRIC<=VALUE`` → :class:`Spec`."""
+    m = re.fullmatch(r"\s*([A-Za-z0-9_]+)\s*<=\s*([-+0-9.eE]+)\s*", text)
+    if not m:
+        raise TuneError(f"--constraint {clip_echo(text)}: expected METRIC<=VALUE (e.g. settling_time_s<=4000)")
+    try:
+        bound = float(m.group(2))
+    except ValueError:
+        raise TuneError(f"--constraint {clip_echo(text)}: '{clip_echo(m.group(2))}' is not a number") from None
+    if not np.isfinite(bound):
+        raise TuneError(f"--constraint {clip_echo(text)}: the bound must be finite")
+    return Spec(m.group(1), bound)
+
+
+def _dotted(place):
+    """``actuators[0]`` → ``actuators.0`` (the override syntax)."""
+    return re.sub(r"\[(\d+)\]", r".\1", place)
+
+
+def resolve_params(built, paths):
+    """The :class:`Param` of every ``--params`` path.
+
+    Raises
+    ------
+    TuneError
+        A path that names no table, or a field its plug-in does not offer for tuning (the
+        message lists the ones it does).
+    """
+    tables = scenario_tables(built.scenario)
+    by_place, counters = {}, {}
+    for role, place, table in tables:
+        index = counters.get(role, 0)
+        counters[role] = index + 1
+        dotted = _dotted(place).replace("network.delivery", "network")
+        by_place[dotted] = (role, index, table)
+        if dotted.endswith(".0") and sum(1 for r, _, _ in tables if r == role) == 1:
+            by_place[dotted[:-2]] = (role, index, table)
+    params, offered_all = [], []
+    for path in paths:
+        place, _, name = path.rpartition(".")
+        if place not in by_place:
+            raise TuneError(f"--params {clip_echo(path)}: no table '{clip_echo(place)}' in this scenario "
+                            f"(tables: {', '.join(sorted(by_place))})")
+        role, index, table = by_place[place]
+        plugin = plugin_for(role, table)
+        part = _part(built.system, role, index)
+        offered = plugin.tunables(table, built.context, part) if plugin.tunables else {}
+        offered_all += [f"{place}.{k}" for k in offered]
+        if name not in offered:
+            what = ", ".join(f"{place}.{k}" for k in offered) or "none"
+            raise TuneError(f"--params {clip_echo(path)}: {table.kind} cannot tune '{clip_echo(name)}' (tunable here: {what})")
+        tunable = offered[name]
+        v0 = np.asarray(tunable.value, dtype=float)
+        log = v0.ndim == 0 and v0 > 0
+        scale = np.maximum(np.abs(v0), 0.05 * max(float(np.abs(v0).max()), 1e-12))
+        params.append(Param(path, place, role, index, name, tunable, bool(log), scale))
+    if not params:
+        raise TuneError("--params: name at least one field to tune")
+    if len({p.path for p in params}) != len(params):
+        raise TuneError("--params: a field is named twice")
+    return params
+
+
+def _part(system, role, index):
+    """The built part of a role (the controller and the network are single)."""
+    return getattr(system, role) if role in ("controller", "network") else getattr(system, role + "s")[index]
+
+
+def with_params(system, params, values):
+    """``system`` with every parameter's value in its part (traceable)."""
+    for p, v in zip(params, values):
+        if p.role in ("controller", "network"):
+            system = replace(system, **{p.role: p.tunable.apply(getattr(system, p.role), v)})
+        else:
+            parts = list(getattr(system, p.role + "s"))
+            parts[p.index] = p.tunable.apply(parts[p.index], v)
+            system = replace(system, **{p.role + "s": tuple(parts)})
+    return system
+
+
+def smooth_system(system):
+    """``system`` with every part that has a smooth surrogate replaced by it, and the notes
+    saying what each is."""
+    notes = []
+
+    def sub(part):
+        make = getattr(part, "surrogate", None)
+        if make is None:
+            return part
+        smooth, note = make()
+        notes.append(note)
+        return smooth
+
+    system = replace(
+        system,
+        controller=sub(system.controller),
+        actuators=tuple(sub(a) for a in system.actuators),
+        sensors=tuple(sub(s) for s in system.sensors),
+        disturbances=tuple(sub(d) for d in system.disturbances),
+    )
+    return system, notes
+
+
+def _split(params, z):
+    """Flat variables → one array per parameter."""
+    out, k = [], 0
+    for p in params:
+        out.append(p.value(z[k: k + p.size]))
+        k += p.size
+    return out
+
+
+def loss_function(built, params, objective, constraints, smooth=True):
+    """``z -> (objective, constraints (m,))`` of one run: pure JAX, differentiable.
+
+    The objective is the metric's surrogate (not yet normalised); each constraint is ≤ 0 when
+    it holds (dimensionless).
+    """
+    import jax.numpy as jnp
+
+    from coopsat.sim.engine import run_samples
+
+    table = surrogates(built)
+    for spec in (objective, *constraints):
+        if spec.metric not in table:
+            raise TuneError(
+                f"'{spec.metric}': no differentiable stand-in for this metric in this scenario "
+                f"(metrics that can be tuned on here: {', '.join(sorted(table)) or 'none'})"
+            )
+        s = table[spec.metric]
+        if (spec.bound is None and s.objective is None) or (spec.bound is not None and s.constraint is None):
+            raise TuneError(f"'{spec.metric}' can be tuned on only as {'a constraint' if s.objective is None else 'an objective'}")
+    system = smooth_system(built.system)[0] if smooth else built.system
+    t_s = np.arange(built.n_records + 1) * built.record_interval_s
+    n = built.n_records
+
+    def f(z):
+        samples = run_samples(with_params(system, params, _split(params, z)), n)
+        obj = table[objective.metric].objective(samples, t_s, built)
+        cons = [table[c.metric].constraint(samples, t_s, built, c.bound) for c in constraints]
+        return obj, jnp.stack(cons) if cons else jnp.zeros((0,))
+
+    return f
+
+
+@dataclass
+class TuneResult:
+    """What a tuning found, and the exact loop's figures before and after."""
+
+    scenario: str
+    params: list
+    objective: Spec
+    constraints: list
+    surrogate_notes: list
+    history: list
+    best_start: int
+    starts: int
+    values: dict
+    tuned_toml: str
+    overrides: list
+    exact_before: dict
+    exact_after: dict
+    surrogate_after: dict
+    iterations: int
+    compile_s: float
+    optimise_s: float
+    rerun_s: float
+    warnings: list = field(default_factory=list)
+
+
+def _overrides(params, values):
+    """``--set`` strings that put the tuned values into the scenario file."""
+    import tomli_w
+
+    out = []
+    for p, v in zip(params, values):
+        for key, val in p.tunable.write(np.asarray(v)).items():
+            text = tomli_w.dumps({"v": val}).strip()[len("v = "):].replace("\n", " ")
+            out.append(f"{p.place}.{key}={text}")
+    return out
+
+
+def _exact_metrics(ref, overrides):
+    """Metrics of one exact run (the pipeline's, as ``coopsat run`` reports them)."""
+    built = prepare(load_scenario(ref, overrides))
+    ds, out = simulate_built(built)
+    metrics, _ = analyse(built, ds, compare=False)
+    return metrics, out.run_s + out.compile_s, built
+
+
+@dataclass
+class Optimum:
+    """What :func:`minimise` found.
+
+    Attributes
+    ----------
+    z : ndarray (starts, n_var)
+        Final variables of every start.
+    values : ndarray (starts, 1 + m)
+        Objective and constraints there.
+    best : int
+        The start kept (:func:`_best`).
+    history : list of dict
+        Per iteration, every start's objective and constraints.
+    iterations : int
+    compile_s, optimise_s : float
+    warnings : list of str
+    """
+
+    z: np.ndarray
+    values: np.ndarray
+    best: int
+    history: list
+    iterations: int
+    compile_s: float
+    optimise_s: float
+    warnings: list
+
+
+def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10):
+    """Minimise ``stacked(z)[0]`` subject to ``stacked(z)[1:] ≤ 0`` from several starts at once.
+
+    Every start is a separate problem, but they are evaluated together: one ``jax.vmap`` of
+    the values and their Jacobian (reverse mode) per SLSQP step, and SLSQP solves the stacked
+    problem (separable objective, block-diagonal constraints). The objective is divided by the
+    first start's initial value.
+
+    Parameters
+    ----------
+    stacked : callable
+        ``z (n_var,) -> (1 + m,)`` JAX function: objective, then constraints.
+    z0 : ndarray (starts, n_var)
+    m : int
+        Number of constraints.
+    bounds : list of (lo, hi)
+        Per variable (``None``: unbounded), for one start.
+    report : callable, optional
+        ``(iteration, values of the best start (1 + m,))`` per iteration.
+
+    Returns
+    -------
+    Optimum
+    """
+    import jax
+    import jax.numpy as jnp
+    from scipy.optimize import minimize
+
+    starts, n_var = z0.shape
+    values_jac = jax.jit(jax.vmap(lambda z: (stacked(z), jax.jacrev(stacked)(z))))
+    t0 = time.perf_counter()
+    vals0 = np.asarray(values_jac(jnp.asarray(z0))[0])
+    compile_s = time.perf_counter() - t0
+    if not np.all(np.isfinite(vals0)):
+        raise TuneError("the surrogate objective or a constraint is not finite at a start (try a smaller --spread)")
+    norm = abs(float(vals0[0, 0])) or 1.0
+    cache = {}
+
+    def evaluate(flat):
+        key = flat.tobytes()
+        if key not in cache:
+            cache.clear()
+            v, j = (np.array(a) for a in values_jac(jnp.asarray(flat.reshape(starts, n_var))))
+            # A step that destabilises the loop gives NaN or inf: report it as far worse than
+            # the start, with no slope, so that the line search steps back.
+            bad = ~np.all(np.isfinite(v), axis=1) | ~np.all(np.isfinite(j), axis=(1, 2))
+            v[bad] = 1e3 * (np.abs(vals0[bad]) + 1.0)
+            j[bad] = 0.0
+            cache[key] = (v, j)
+        return cache[key]
+
+    def cons_jac(flat):
+        j = evaluate(flat)[1][:, 1:, :]  # (starts, m, n_var)
+        out = np.zeros((starts * m, starts * n_var))
+        for s in range(starts):  # block diagonal: the starts are independent problems
+            out[s * m:(s + 1) * m, s * n_var:(s + 1) * n_var] = -j[s]
+        return out
+
+    history = []
+
+    def record(flat):
+        v = evaluate(flat)[0]
+        history.append({"iteration": len(history), "objective": v[:, 0].tolist(), "constraints": v[:, 1:].tolist()})
+        if report is not None:
+            report(len(history) - 1, v[_best(v)])
+
+    t0 = time.perf_counter()
+    record(z0.reshape(-1))
+    res = minimize(
+        lambda x: float(evaluate(x)[0][:, 0].sum() / norm), z0.reshape(-1),
+        jac=lambda x: (evaluate(x)[1][:, 0, :] / norm).reshape(-1), method="SLSQP", bounds=list(bounds) * starts,
+        constraints=[{"type": "ineq", "fun": lambda x: -evaluate(x)[0][:, 1:].reshape(-1), "jac": cons_jac}] if m else [],
+        options={"maxiter": max_iter, "ftol": ftol}, callback=record,
+    )
+    optimise_s = time.perf_counter() - t0
+    v = evaluate(res.x)[0]
+    return Optimum(
+        z=res.x.reshape(starts, n_var), values=v, best=_best(v), history=history, iterations=int(res.nit),
+        compile_s=compile_s, optimise_s=optimise_s, warnings=[] if res.success else [f"SLSQP stopped: {res.message}"],
+    )
+
+
+def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spread=0.3, max_iter=50, seed=0,
+         progress=False, report=print):
+    """Tune the named fields of a scenario by gradient, then re-run it exactly.
+
+    Parameters
+    ----------
+    ref : str
+        Bundled scenario name or path.
+    objective : str
+        Metric to minimise.
+    constraints : sequence of str
+        ``METRIC<=VALUE`` each.
+    params : sequence of str
+        Field paths (``controller.alpha``).
+    overrides : sequence of str
+        ``--set`` assignments applied first.
+    starts : int
+        Initial points (the scenario's own, then ``starts − 1`` drawn around it with relative
+        spread ``spread``), evaluated together in one ``vmap``.
+    max_iter : int
+        SLSQP iterations.
+    seed : int
+        Seed of the drawn starts.
+    report : callable
+        Receives one line per iteration.
+
+    Returns
+    -------
+    TuneResult
+    """
+    import jax.numpy as jnp
+
+    if starts < 1:
+        raise TuneError(f"--starts {starts}: must be at least 1")
+    if max_iter < 1:
+        raise TuneError(f"--max-iter {max_iter}: must be at least 1")
+    if not spread > 0:
+        raise TuneError(f"--spread {spread}: must be positive")
+    obj_spec = Spec(objective)
+    cons_specs = [parse_constraint(c) for c in constraints]
+    built = prepare(load_scenario(ref, overrides))
+    par = resolve_params(built, params)
+    f = loss_function(built, par, obj_spec, cons_specs)
+    notes = smooth_system(built.system)[1]
+    n_var = sum(p.size for p in par)
+    m = len(cons_specs)
+
+    def stacked(z):  # (objective, constraints...) of one start
+        obj, cons = f(z)
+        return jnp.concatenate([obj[None], cons])
+
+    rng = np.random.default_rng(seed)
+    z0 = np.zeros((starts, n_var))
+    z0[1:] = spread * rng.standard_normal((starts - 1, n_var))
+    # A positive scalar moves at most a factor e^3 ≈ 20 either way from its start.
+    bounds = [(-LOG_BOUND, LOG_BOUND) if p.log else (None, None) for p in par for _ in range(p.size)]
+    z0 = np.clip(z0, [lo if lo is not None else -np.inf for lo, _ in bounds], [hi if hi is not None else np.inf for _, hi in bounds])
+
+    def line(k, v):
+        cons = ", ".join(f"{c}: {g:+.3g}" for c, g in zip(cons_specs, v[1:]))
+        return f"  iter {k:3d}  {obj_spec.metric} surrogate {v[0]:.6g}" + (f"  constraints (≤ 0) {cons}" if m else "")
+
+    opt = minimise(stacked, z0, m, bounds, max_iter, lambda k, v: report(line(k, v)))
+    best, v = opt.best, opt.values
+    values = [np.asarray(x) for x in _split(par, jnp.asarray(opt.z[best]))]
+    tuned = _overrides(par, values)
+
+    t0 = time.perf_counter()
+    before, _, _ = _exact_metrics(ref, overrides)
+    try:
+        after, _, tuned_built = _exact_metrics(ref, [*overrides, *tuned])
+    except ScenarioError as err:
+        raise TuneError(f"the tuned values do not make a valid scenario: {err}") from None
+    rerun_s = time.perf_counter() - t0
+    return TuneResult(
+        scenario=built.scenario.name, params=[p.path for p in par], objective=obj_spec, constraints=cons_specs,
+        surrogate_notes=[surrogates(built)[s.metric].what for s in (obj_spec, *cons_specs)] + notes,
+        history=opt.history, best_start=int(best), starts=starts,
+        values={p.path: np.asarray(x).tolist() for p, x in zip(par, values)},
+        tuned_toml=resolved_toml(tuned_built.scenario), overrides=tuned,
+        exact_before={s.metric: before.get(s.metric) for s in (obj_spec, *cons_specs)},
+        exact_after={s.metric: after.get(s.metric) for s in (obj_spec, *cons_specs)},
+        surrogate_after={"objective": float(v[best, 0]), "constraints": v[best, 1:].tolist()},
+        iterations=opt.iterations, compile_s=opt.compile_s, optimise_s=opt.optimise_s, rerun_s=rerun_s, warnings=opt.warnings,
+    )
+
+
+def _best(values):
+    """The start to keep: the lowest objective among those meeting every constraint, else the
+    least violation. ``values``: (starts, 1 + m)."""
+    violation = np.maximum(values[:, 1:], 0.0).sum(axis=1) if values.shape[1] > 1 else np.zeros(len(values))
+    feasible = violation <= 1e-6
+    if feasible.any():
+        return int(np.flatnonzero(feasible)[np.argmin(values[feasible, 0])])
+    return int(np.argmin(violation))
+
+
+def constraint_met(spec, value):
+    """The exact loop's figure meets ``metric <= bound`` (None — e.g. never settled — does not)."""
+    return value is not None and np.isfinite(value) and value <= spec.bound
+
+
+def report_lines(result):
+    """The tuning's summary: figures before and after, exact, beside the surrogate's."""
+    lines = [f"{result.scenario}: tuned {', '.join(result.params)} in {result.iterations} iterations "
+             f"({result.starts} start{'s' if result.starts > 1 else ''}, kept start {result.best_start}; "
+             f"compile {result.compile_s:.1f} s, optimise {result.optimise_s:.1f} s, exact re-runs {result.rerun_s:.1f} s)"]
+    for s in (result.objective, *result.constraints):
+        b, a = result.exact_before[s.metric], result.exact_after[s.metric]
+        fmt = lambda x: "never" if x is None else f"{x:.6g}"  # noqa: E731
+        verdict = "" if s.bound is None else ("  met" if constraint_met(s, a) else "  NOT MET on the exact loop")
+        lines.append(f"  {str(s):<32} exact before {fmt(b):>12}  exact after {fmt(a):>12}{verdict}")
+    lines.append(f"  surrogate objective at the optimum: {result.surrogate_after['objective']:.6g}")
+    for p, v in result.values.items():
+        lines.append(f"  {p} = {np.array2string(np.asarray(v), precision=6, max_line_width=200)}")
+    lines += [f"  warning: {w}" for w in result.warnings]
+    return lines
+
+
+def markdown(result):
+    """tune.md: what was tuned, on which surrogates, and the exact figures."""
+    rows = ["| metric | exact before | exact after | constraint |", "|---|---|---|---|"]
+    for s in (result.objective, *result.constraints):
+        b, a = result.exact_before[s.metric], result.exact_after[s.metric]
+        rows.append(f"| {s.metric} | {b if b is not None else 'never'} | {a if a is not None else 'never'} | "
+                    f"{'objective' if s.bound is None else ('≤ %g: ' % s.bound) + ('met' if constraint_met(s, a) else 'NOT MET')} |")
+    notes = "\n".join(f"- {n}" for n in result.surrogate_notes)
+    return (f"# Tuning of {result.scenario}\n\nTuned: {', '.join(result.params)}; {result.iterations} SLSQP iterations, "
+            f"{result.starts} start(s), start {result.best_start} kept.\n\nExact closed loop (every figure below is a "
+            f"re-run of the scenario, not the surrogate):\n\n" + "\n".join(rows)
+            + f"\n\nSurrogates used for the gradient only:\n\n{notes}\n\nSurrogate objective at the optimum: "
+            f"{result.surrogate_after['objective']:.6g}; constraints (≤ 0 holds): {result.surrogate_after['constraints']}.\n")
+
+
+def write_tune_folder(out_dir, result):
+    """``tuned.toml`` (the scenario with the tuned values, replayable), ``tune.json`` (the
+    path of the optimisation and the figures) and ``tune.md``, atomically."""
+    check_folder(out_dir, MARKER, "tune", TuneError)
+    with atomic_folder(out_dir, TuneError) as tmp:
+        (tmp / "tuned.toml").write_text(result.tuned_toml)
+        (tmp / "tune.md").write_text(markdown(result))
+        summary = {k: v for k, v in result.__dict__.items() if k != "tuned_toml"}
+        summary["objective"] = str(result.objective)
+        summary["constraints"] = [str(c) for c in result.constraints]
+        (tmp / MARKER).write_text(json.dumps(json_ready(summary), indent=2, allow_nan=False) + "\n")
+    return out_dir

@@ -300,7 +300,7 @@ def _cmd_tune(args):
         check_folder(out, MARKER, "tune", TuneError)  # before minutes of work, not after
     report = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     result = tune(args.scenario, args.objective, args.constraint, args.params, overrides=args.set, starts=args.starts,
-                  spread=args.spread, max_iter=args.max_iter, seed=args.seed, report=report)
+                  spread=args.spread, max_iter=args.max_iter, seed=args.seed, polish=args.polish, report=report)
     for line in report_lines(result):
         print(line)
     if out is not None:
@@ -409,7 +409,8 @@ def build_parser():
     tn.add_argument("--objective", required=True, metavar="METRIC", help="metric to minimise (e.g. fuel_l1_ns, sync_time_s)")
     tn.add_argument("--constraint", action="append", default=[], metavar="METRIC<=VALUE", help="a constraint (repeatable)")
     tn.add_argument("--params", nargs="+", required=True, metavar="PATH", help="fields to tune (controller.alpha controller.beta)")
-    tn.add_argument("--starts", type=int, default=1, help="initial points, evaluated together in one vmap (default 1)")
+    tn.add_argument("--starts", type=int, default=1, help="initial points, screened together in one vmap (default 1)")
+    tn.add_argument("--polish", type=int, default=1, help="how many of the best starts SLSQP refines (default 1)")
     tn.add_argument("--spread", type=float, default=0.3, help="relative spread of the drawn starts (default 0.3)")
     tn.add_argument("--max-iter", type=int, default=50, help="SLSQP iterations (default 50)")
     tn.add_argument("--seed", type=int, default=0, help="seed of the drawn starts")

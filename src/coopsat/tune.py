@@ -297,7 +297,7 @@ class Optimum:
     values : ndarray (starts, 1 + m)
         Objective and constraints there.
     best : int
-        The start kept (:func:`_best`).
+        The start kept (:func:`_ranked`).
     history : list of dict
         Per iteration, every start's objective and constraints.
     iterations : int
@@ -315,13 +315,15 @@ class Optimum:
     warnings: list
 
 
-def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10):
-    """Minimise ``stacked(z)[0]`` subject to ``stacked(z)[1:] ≤ 0`` from several starts at once.
+def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10, polish=1):
+    """Minimise ``stacked(z)[0]`` subject to ``stacked(z)[1:] ≤ 0`` from several starts.
 
-    Every start is a separate problem, but they are evaluated together: one ``jax.vmap`` of
-    the values and their Jacobian (reverse mode) per SLSQP step, and SLSQP solves the stacked
-    problem (separable objective, block-diagonal constraints). The objective is divided by the
-    first start's initial value.
+    Every start is screened in one ``jax.vmap`` (values and Jacobians together); SLSQP then
+    runs from the ``polish`` best of them (lowest objective among those meeting the
+    constraints, then least violation), one after the other, with the Jacobian by reverse
+    mode. The objective is divided by its value at the first start, so that SLSQP's tolerance
+    is relative. (Stacking every start into one SLSQP problem was tried first: one start
+    that meets a bad step stops all of them.)
 
     Parameters
     ----------
@@ -331,74 +333,76 @@ def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10):
     m : int
         Number of constraints.
     bounds : list of (lo, hi)
-        Per variable (``None``: unbounded), for one start.
+        Per variable (``None``: unbounded).
     report : callable, optional
-        ``(iteration, values of the best start (1 + m,))`` per iteration.
+        ``(iteration, values (1 + m,))`` per iteration of the start being polished.
+    polish : int
+        How many of the screened starts SLSQP refines.
 
     Returns
     -------
     Optimum
+        ``z``, ``values``: every start's final point and values (those not polished stay at
+        their start).
     """
     import jax
     import jax.numpy as jnp
     from scipy.optimize import minimize
 
     starts, n_var = z0.shape
-    values_jac = jax.jit(jax.vmap(lambda z: (stacked(z), jax.jacrev(stacked)(z))))
+    both = lambda z: (stacked(z), jax.jacrev(stacked)(z))  # noqa: E731
     t0 = time.perf_counter()
-    vals0 = np.asarray(values_jac(jnp.asarray(z0))[0])
+    vals0 = np.asarray(jax.jit(jax.vmap(both))(jnp.asarray(z0))[0])
+    one = jax.jit(both)
+    one(jnp.asarray(z0[0]))
     compile_s = time.perf_counter() - t0
-    if not np.all(np.isfinite(vals0)):
-        raise TuneError("the surrogate objective or a constraint is not finite at a start (try a smaller --spread)")
+    if not np.all(np.isfinite(vals0[0])):
+        raise TuneError("the surrogate objective or a constraint is not finite at the scenario's own values")
+    vals0 = np.where(np.isfinite(vals0), vals0, np.inf)
     norm = abs(float(vals0[0, 0])) or 1.0
     cache = {}
 
-    def evaluate(flat):
-        key = flat.tobytes()
+    def evaluate(x):
+        key = x.tobytes()
         if key not in cache:
             cache.clear()
-            v, j = (np.array(a) for a in values_jac(jnp.asarray(flat.reshape(starts, n_var))))
-            # A step that destabilises the loop gives NaN or inf: report it as far worse than
-            # the start, with no slope, so that the line search steps back.
-            bad = ~np.all(np.isfinite(v), axis=1) | ~np.all(np.isfinite(j), axis=(1, 2))
-            v[bad] = 1e3 * (np.abs(vals0[bad]) + 1.0)
-            j[bad] = 0.0
+            v, j = (np.array(a) for a in one(jnp.asarray(x)))
+            if not (np.all(np.isfinite(v)) and np.all(np.isfinite(j))):
+                # A step that destabilises the loop gives NaN or inf: report it as far worse
+                # than the start, with no slope, so that the line search steps back.
+                v, j = 1e3 * (np.abs(vals0[0]) + 1.0), np.zeros_like(j)
             cache[key] = (v, j)
         return cache[key]
 
-    def cons_jac(flat):
-        j = evaluate(flat)[1][:, 1:, :]  # (starts, m, n_var)
-        out = np.zeros((starts * m, starts * n_var))
-        for s in range(starts):  # block diagonal: the starts are independent problems
-            out[s * m:(s + 1) * m, s * n_var:(s + 1) * n_var] = -j[s]
-        return out
-
-    history = []
-
-    def record(flat):
-        v = evaluate(flat)[0]
-        history.append({"iteration": len(history), "objective": v[:, 0].tolist(), "constraints": v[:, 1:].tolist()})
-        if report is not None:
-            report(len(history) - 1, v[_best(v)])
-
+    history, z, values, iterations, warnings = [], z0.copy(), vals0.copy(), 0, []
     t0 = time.perf_counter()
-    record(z0.reshape(-1))
-    res = minimize(
-        lambda x: float(evaluate(x)[0][:, 0].sum() / norm), z0.reshape(-1),
-        jac=lambda x: (evaluate(x)[1][:, 0, :] / norm).reshape(-1), method="SLSQP", bounds=list(bounds) * starts,
-        constraints=[{"type": "ineq", "fun": lambda x: -evaluate(x)[0][:, 1:].reshape(-1), "jac": cons_jac}] if m else [],
-        options={"maxiter": max_iter, "ftol": ftol}, callback=record,
-    )
-    optimise_s = time.perf_counter() - t0
-    v = evaluate(res.x)[0]
+    for s in _ranked(vals0)[:polish]:
+
+        def record(x, s=s):
+            v = evaluate(x)[0]
+            history.append({"start": int(s), "iteration": len(history), "objective": float(v[0]), "constraints": v[1:].tolist()})
+            if report is not None:
+                report(len(history) - 1, v)
+
+        record(z0[s])
+        res = minimize(
+            lambda x: float(evaluate(x)[0][0] / norm), z0[s], jac=lambda x: evaluate(x)[1][0] / norm,
+            method="SLSQP", bounds=bounds,
+            constraints=[{"type": "ineq", "fun": lambda x: -evaluate(x)[0][1:], "jac": lambda x: -evaluate(x)[1][1:]}] if m else [],
+            options={"maxiter": max_iter, "ftol": ftol}, callback=record,
+        )
+        z[s], values[s] = res.x, evaluate(res.x)[0]
+        iterations += int(res.nit)
+        if not res.success:
+            warnings.append(f"SLSQP from start {s} stopped: {res.message}")
     return Optimum(
-        z=res.x.reshape(starts, n_var), values=v, best=_best(v), history=history, iterations=int(res.nit),
-        compile_s=compile_s, optimise_s=optimise_s, warnings=[] if res.success else [f"SLSQP stopped: {res.message}"],
+        z=z, values=values, best=_ranked(values)[0], history=history, iterations=iterations,
+        compile_s=compile_s, optimise_s=time.perf_counter() - t0, warnings=warnings,
     )
 
 
 def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spread=0.3, max_iter=50, seed=0,
-         progress=False, report=print):
+         polish=1, report=print):
     """Tune the named fields of a scenario by gradient, then re-run it exactly.
 
     Parameters
@@ -415,7 +419,9 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
         ``--set`` assignments applied first.
     starts : int
         Initial points (the scenario's own, then ``starts − 1`` drawn around it with relative
-        spread ``spread``), evaluated together in one ``vmap``.
+        spread ``spread``), screened together in one ``vmap``.
+    polish : int
+        How many of the best screened starts SLSQP refines.
     max_iter : int
         SLSQP iterations.
     seed : int
@@ -459,7 +465,9 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
         cons = ", ".join(f"{c}: {g:+.3g}" for c, g in zip(cons_specs, v[1:]))
         return f"  iter {k:3d}  {obj_spec.metric} surrogate {v[0]:.6g}" + (f"  constraints (≤ 0) {cons}" if m else "")
 
-    opt = minimise(stacked, z0, m, bounds, max_iter, lambda k, v: report(line(k, v)))
+    if not 1 <= polish <= starts:
+        raise TuneError(f"--polish {polish}: must be between 1 and --starts ({starts})")
+    opt = minimise(stacked, z0, m, bounds, max_iter, lambda k, v: report(line(k, v)), polish=polish)
     best, v = opt.best, opt.values
     values = [np.asarray(x) for x in _split(par, jnp.asarray(opt.z[best]))]
     tuned = _overrides(par, values)
@@ -480,18 +488,18 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
         exact_before={s.metric: before.get(s.metric) for s in (obj_spec, *cons_specs)},
         exact_after={s.metric: after.get(s.metric) for s in (obj_spec, *cons_specs)},
         surrogate_after={"objective": float(v[best, 0]), "constraints": v[best, 1:].tolist()},
-        iterations=opt.iterations, compile_s=opt.compile_s, optimise_s=opt.optimise_s, rerun_s=rerun_s, warnings=opt.warnings,
+        iterations=opt.iterations, compile_s=opt.compile_s, optimise_s=opt.optimise_s, rerun_s=rerun_s,
+        warnings=[*opt.warnings, *(f"tuned scenario: {w}" for w in tuned_built.warnings)],
     )
 
 
-def _best(values):
-    """The start to keep: the lowest objective among those meeting every constraint, else the
-    least violation. ``values``: (starts, 1 + m)."""
+def _ranked(values):
+    """Starts from best to worst: those meeting every constraint by objective, then the rest
+    by total violation. ``values``: (starts, 1 + m)."""
     violation = np.maximum(values[:, 1:], 0.0).sum(axis=1) if values.shape[1] > 1 else np.zeros(len(values))
     feasible = violation <= 1e-6
-    if feasible.any():
-        return int(np.flatnonzero(feasible)[np.argmin(values[feasible, 0])])
-    return int(np.argmin(violation))
+    order = np.lexsort((values[:, 0], np.where(feasible, 0.0, violation), ~feasible))
+    return [int(k) for k in order]
 
 
 def constraint_met(spec, value):

@@ -34,6 +34,9 @@ MARKER = "tune.json"
 """Written into every tune folder: only a folder holding it is replaced by a new tuning."""
 
 
+FIRST_STEP = 0.1
+"""Length of SLSQP's first step in the scaled variables (10 % of each parameter's size)."""
+
 LOG_BOUND = 3.0
 """Bound on the variable of a positive scalar tuned as ``θ0·e^z``: ``|z| ≤ 3``."""
 
@@ -321,8 +324,8 @@ def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10, polis
     Every start is screened in one ``jax.vmap`` (values and Jacobians together); SLSQP then
     runs from the ``polish`` best of them (lowest objective among those meeting the
     constraints, then least violation), one after the other, with the Jacobian by reverse
-    mode. The objective is divided by its value at the first start, so that SLSQP's tolerance
-    is relative. (Stacking every start into one SLSQP problem was tried first: one start
+    mode. The objective is divided by its gradient's norm at the first start over
+    :data:`FIRST_STEP`. (Stacking every start into one SLSQP problem was tried first: one start
     that meets a bad step stops all of them.)
 
     Parameters
@@ -352,14 +355,16 @@ def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10, polis
     starts, n_var = z0.shape
     both = lambda z: (stacked(z), jax.jacrev(stacked)(z))  # noqa: E731
     t0 = time.perf_counter()
-    vals0 = np.asarray(jax.jit(jax.vmap(both))(jnp.asarray(z0))[0])
+    vals0, jac0 = (np.asarray(a) for a in jax.jit(jax.vmap(both))(jnp.asarray(z0)))
     one = jax.jit(both)
     one(jnp.asarray(z0[0]))
     compile_s = time.perf_counter() - t0
-    if not np.all(np.isfinite(vals0[0])):
+    if not (np.all(np.isfinite(vals0[0])) and np.all(np.isfinite(jac0[0]))):
         raise TuneError("the surrogate objective or a constraint is not finite at the scenario's own values")
     vals0 = np.where(np.isfinite(vals0), vals0, np.inf)
-    norm = abs(float(vals0[0, 0])) or 1.0
+    # SLSQP's first step is the negative gradient (its Hessian estimate starts as I): scaled so,
+    # that step moves the variables by FIRST_STEP at most, not across the whole stable region.
+    norm = max(float(np.linalg.norm(jac0[0, 0])) / FIRST_STEP, 1e-300)
     cache = {}
 
     def evaluate(x):

@@ -153,7 +153,10 @@ def resolve_params(built, paths):
         tunable = offered[name]
         v0 = np.asarray(tunable.value, dtype=float)
         log = v0.ndim == 0 and v0 > 0
-        scale = np.maximum(np.abs(v0), 0.05 * max(float(np.abs(v0).max()), 1e-12))
+        # Each entry's own size, at least 5 % of the largest of its column (a gain matrix's
+        # columns have different units: N/m beside N·s/m, three orders apart here).
+        big = np.abs(v0).max(axis=0, keepdims=True) if v0.ndim == 2 else np.abs(v0).max()
+        scale = np.maximum(np.abs(v0), 0.05 * np.where(big > 0, big, max(float(np.abs(v0).max()), 1e-12)))
         params.append(Param(path, place, role, index, name, tunable, bool(log), scale))
     if not params:
         raise TuneError("--params: name at least one field to tune")
@@ -236,9 +239,10 @@ def loss_function(built, params, objective, constraints, smooth=True):
     n = built.n_records
 
     def f(z):
-        samples = run_samples(with_params(system, params, _split(params, z)), n)
-        obj = table[objective.metric].objective(samples, t_s, built)
-        cons = [table[c.metric].constraint(samples, t_s, built, c.bound) for c in constraints]
+        tuned = with_params(system, params, _split(params, z))
+        samples = run_samples(tuned, n)
+        obj = table[objective.metric].objective(samples, t_s, built, tuned)
+        cons = [table[c.metric].constraint(samples, t_s, built, tuned, c.bound) for c in constraints]
         return obj, jnp.stack(cons) if cons else jnp.zeros((0,))
 
     return f
@@ -383,8 +387,11 @@ def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10, polis
     t0 = time.perf_counter()
     for s in _ranked(vals0)[:polish]:
 
-        def record(x, s=s):
+        seen = []
+
+        def record(x, s=s, seen=seen):
             v = evaluate(x)[0]
+            seen.append((x.copy(), v))
             history.append({"start": int(s), "iteration": len(history), "objective": float(v[0]), "constraints": v[1:].tolist()})
             if report is not None:
                 report(len(history) - 1, v)
@@ -396,7 +403,11 @@ def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10, polis
             constraints=[{"type": "ineq", "fun": lambda x: -evaluate(x)[0][1:], "jac": lambda x: -evaluate(x)[1][1:]}] if m else [],
             options={"maxiter": max_iter, "ftol": ftol}, callback=record,
         )
-        z[s], values[s] = res.x, evaluate(res.x)[0]
+        seen.append((res.x, evaluate(res.x)[0]))
+        # SLSQP returns its last iterate, which past an iteration limit may be worse than one
+        # it has been through (even infeasible after a feasible start): keep the best seen.
+        keep = _ranked(np.array([v for _, v in seen]))[0]
+        z[s], values[s] = seen[keep]
         iterations += int(res.nit)
         if not res.success:
             warnings.append(f"SLSQP from start {s} stopped: {res.message}")

@@ -216,16 +216,21 @@ def _design(table, ctx, force_scale_n=None):
         "force_max_n": f_max,
         "source": np.arange(n) if _architecture(table) == "decentralized" else np.full(n, hub),
     }
-    # The sampled closed loop without the dead zone: truth x_o and estimate z together.
     a_d, b_d = fd.discretize(dec.a_o, dec.b_o, ctx.period_s)
-    m = part
-    top = np.hstack([a_d, b_d @ m["c_u"]])
-    bottom = np.hstack([m["gamma_y"] @ c_y, m["phi"] + m["gamma_u"] @ m["c_u"]])
-    radius = float(np.max(np.abs(np.linalg.eigvals(np.vstack([top, bottom])))))
+    radius = float(np.max(np.abs(np.linalg.eigvals(closed_loop_matrix(a_d, b_d, c_y, part, np)))))
     return {
-        "part": part, "k": k, "gain": gain, "observer": observer, "centroid": centroid, "x_ref": x_ref, "p0": p0,
+        "part": part, "k": k, "plant_d": (a_d, b_d, c_y), "gain": gain, "observer": observer, "centroid": centroid, "x_ref": x_ref, "p0": p0,
         "target": target, "decomposition": dec, "closed_loop_radius": radius, "axes": axes,
     }
+
+
+def closed_loop_matrix(a_d, b_d, c_y, m, xp):
+    """The sampled closed loop without the dead zone over one period: the relative state
+    (``a_d``, ``b_d``, outputs ``c_y``) and the flight software's estimate (``m``: phi,
+    gamma_y, gamma_u, c_u) together. ``xp``: numpy, or jax.numpy (traced, for ``coopsat tune``)."""
+    top = xp.hstack([a_d, b_d @ m["c_u"]])
+    bottom = xp.hstack([m["gamma_y"] @ c_y, m["phi"] + m["gamma_u"] @ m["c_u"]])
+    return xp.vstack([top, bottom])
 
 
 def _given_gain(table, rows, cols):

@@ -163,8 +163,8 @@ def _sync_error(samples, built):
 
 SURROGATES = {
     "sync_time_s": Surrogate(
-        lambda s, t, b: time_weighted_error(t, _sync_error(s, b)),
-        lambda s, t, b, bound: settled_by(t, _sync_error(s, b), bound),
+        lambda s, t, b, sys: time_weighted_error(t, _sync_error(s, b)),
+        lambda s, t, b, sys, bound: settled_by(t, _sync_error(s, b), bound),
         "objective: ∫t·e(t)dt/∫t dt (ITAE) of e = max(attitude spread / sync_attitude_deg, rate spread / sync_rate_rad_s); "
         "constraint: log-sum-exp of e over the samples at or after the bound, ≤ 1",
     ),

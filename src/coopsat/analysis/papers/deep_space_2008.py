@@ -128,25 +128,44 @@ def _formation_error(samples, built):
     return jnp.max(dist, axis=-1)
 
 
-def _fuel(samples, t_s, built):
+def _fuel(samples, t_s, built, system):
     return samples["abs_force_impulse"][-1].sum()
 
 
-def _settling_constraint(samples, t_s, built, bound_s):
+def _settling_constraint(samples, t_s, built, system, bound_s):
     return settled_by(t_s, _formation_error(samples, built) / built.scenario.analysis.formation_tolerance_m, bound_s)
 
 
-def _settling_objective(samples, t_s, built):
+def _settling_objective(samples, t_s, built, system):
     return time_weighted_error(t_s, _formation_error(samples, built))
 
 
-def _final_error_constraint(samples, t_s, built, bound_m):
+def _final_error_constraint(samples, t_s, built, system, bound_m):
     return _formation_error(samples, built)[-1] / bound_m - 1.0
 
 
+def _radius_constraint(samples, t_s, built, system, bound):
+    """The sampled closed loop's spectral radius (plant, observer, law; no dead zone) of the
+    tuned flight software, over ``bound``, minus 1."""
+    import jax.numpy as jnp
+
+    from coopsat.analysis.surrogates import spectral_radius_bound
+    from coopsat.plugins.formation import closed_loop_matrix
+
+    a_d, b_d, c_y = built.checks["formation-design"].detail["plant_d"]
+    c = system.controller
+    m = {"c_u": c.c_u, "gamma_y": c.gamma_y, "gamma_u": c.gamma_u, "phi": c.phi}
+    return spectral_radius_bound(closed_loop_matrix(jnp.asarray(a_d), jnp.asarray(b_d), jnp.asarray(c_y), m, jnp)) / bound - 1.0
+
+
 SURROGATES = {
+    "closed_loop_spectral_radius": Surrogate(
+        None, _radius_constraint,
+        "Gelfand's ‖M^k‖^(1/k), k = 2^14, of the sampled closed loop with the tuned gains: a smooth upper bound of the "
+        "spectral radius (the eigenvalues repeat across coordinates, where |eig| has no derivative)",
+    ),
     "fuel_l1_ns": Surrogate(
-        _fuel, lambda s, t, b, bound: _fuel(s, t, b) / bound - 1.0,
+        _fuel, lambda s, t, b, sys, bound: _fuel(s, t, b, sys) / bound - 1.0,
         "Σ∫|F| dt from the thrusters' counter, on the smoothed thrusters", exact_in_metric_units=True,
     ),
     "settling_time_s": Surrogate(
@@ -155,7 +174,7 @@ SURROGATES = {
         "the samples at or after the bound, ≤ 1 (an upper bound of the max: slightly conservative)",
     ),
     "formation_error_final_m": Surrogate(
-        lambda s, t, b: _formation_error(s, b)[-1], _final_error_constraint,
+        lambda s, t, b, sys: _formation_error(s, b)[-1], _final_error_constraint,
         "the formation error at the last sample (the metric itself, on the smoothed loop)", exact_in_metric_units=True,
     ),
 }

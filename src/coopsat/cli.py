@@ -251,8 +251,15 @@ def _cmd_tradeoff(args):
     if bad:
         raise TradeoffError(f"--coordinates: unknown {bad} (known: hub, orthonormal)")
     out = args.out or "runs/tradeoff"
-    rows, comparisons, compile_s, run_s = run_tradeoff(args.scenarios, out, scales, coords, progress=not args.quiet)
+    report = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    rows, comparisons, compile_s, run_s = run_tradeoff(args.scenarios, out, scales, coords, progress=not args.quiet,
+                                                       tune_fuel=args.tune_fuel, tune_iter=args.tune_iter, report=report)
     print(f"wrote {out}  ({len(rows)} runs; compile {compile_s:.2f} s, run {run_s:.2f} s)")
+    for r in (r for r in rows if r["design"] == "tuned"):
+        settle = "never" if r["settling_time_s"] is None else f"{r['settling_time_s']:.0f} s"
+        print(f"  tuned gain ({r['coordinates']}) at LQR {r['force_scale_n']:g} N: fuel {r['fuel_l1_ns']:.4g} N s against LQR's "
+              f"{r['start_fuel_l1_ns']:.4g} (settling {settle}, asked {r['start_settling_time_s']:.0f} s; "
+              f"rest-to-rest bound {r['fuel_bound_ns']:.4g} N s)")
     for c in comparisons:
         what = f"  LMI {c['lmi']:<12} vs LQR {c['lqr']:<12}"
         if c["overlap_s"] is None:
@@ -375,6 +382,9 @@ def build_parser():
     trade.add_argument("--scales", help="comma-separated Bryson force scales to sweep, N (default 0.03 … 0.3)")
     trade.add_argument("--coordinates", default="hub,orthonormal", help="relative coordinates to sweep (default hub,orthonormal)")
     trade.add_argument("--out", help="output folder (default runs/tradeoff)")
+    trade.add_argument("--tune-fuel", action="store_true",
+                       help="also tune a gain for least fuel at each settling time of the LQR front (coopsat tune; minutes per point)")
+    trade.add_argument("--tune-iter", type=int, default=100, help="SLSQP iterations per tuned point (default 100)")
     trade.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     trade.set_defaults(func=_cmd_tradeoff)
 

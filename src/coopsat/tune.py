@@ -266,6 +266,7 @@ class TuneResult:
     exact_before: dict
     exact_after: dict
     surrogate_after: dict
+    metrics_after: dict
     iterations: int
     compile_s: float
     optimise_s: float
@@ -502,7 +503,7 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
         values={p.path: np.asarray(x).tolist() for p, x in zip(par, values)},
         tuned_toml=resolved_toml(tuned_built.scenario), overrides=tuned,
         exact_before={s.metric: before.get(s.metric) for s in (obj_spec, *cons_specs)},
-        exact_after={s.metric: after.get(s.metric) for s in (obj_spec, *cons_specs)},
+        exact_after={s.metric: after.get(s.metric) for s in (obj_spec, *cons_specs)}, metrics_after=after,
         surrogate_after={"objective": float(v[best, 0]), "constraints": v[best, 1:].tolist()},
         iterations=opt.iterations, compile_s=opt.compile_s, optimise_s=opt.optimise_s, rerun_s=rerun_s,
         warnings=[*opt.warnings, *(f"tuned scenario: {w}" for w in tuned_built.warnings)],

@@ -89,14 +89,15 @@ def figures(ds, built):
     return {"trajectories": trajectory_figure(ds, built), "fuel": fuel_figure(ds, built), "formation_error": error_figure(ds, built)}
 
 
-def tradeoff_figure(rows, comparisons, fuel="fuel_l1_ns"):
-    """Fuel against settling time of every series, each with its Pareto front (line), and the
-    matched settling times of the comparison (vertical ticks)."""
+def tradeoff_figure(rows, comparisons, fuel="fuel_l1_ns", bound=None):
+    """Fuel against settling time of every series, each with its Pareto front (line), the
+    matched settling times of the comparison (vertical ticks) and, when given, a lower bound
+    ``bound = (settle_s, fuel_ns)`` (dotted)."""
     from coopsat.analysis.tradeoff import pareto_front
 
     fig = Figure(figsize=(7.5, 5.0), layout="constrained")
     ax = fig.add_subplot()
-    markers = {"lmi": "o", "lqr": "s"}
+    markers = {"lmi": "o", "lqr": "s", "tuned": "^"}
     styles = {"hub": "-", "orthonormal": "--"}
     for key in dict.fromkeys((r["design"], r["coordinates"], r["scenario"]) for r in rows):
         series = [r for r in rows if (r["design"], r["coordinates"], r["scenario"]) == key]
@@ -108,6 +109,8 @@ def tradeoff_figure(rows, comparisons, fuel="fuel_l1_ns"):
     for c in comparisons:
         for t in c["settle_s"]:
             ax.axvline(t, color="0.85", lw=0.8, zorder=0)
+    if bound is not None:
+        ax.plot(bound[0], bound[1], ":", color="k", label="rest-to-rest bound (bang-coast-bang)")
     ax.set_xlabel("settling time (s)")
     ax.set_ylabel(f"fuel {'Σ∫|u| dt (L1)' if fuel == 'fuel_l1_ns' else fuel} (N s)")
     ax.legend(fontsize="small")

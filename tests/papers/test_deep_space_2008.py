@@ -143,3 +143,24 @@ def test_full_tradeoff_reproduces_the_verdict_on_the_published_saving(tmp_path):
     assert by[("hub", "hub")] < 0.0  # posed as the paper reads it, the LMI spends more
     assert abs(by[("orthonormal", "orthonormal")]) < 1.0  # min γ lands on the Riccati gain
     assert by[("orthonormal", "hub")] > 10.6  # a saving appears only across coordinates
+
+
+@pytest.mark.slow
+def test_fuel_tuned_gain_never_spends_more_than_lqr_nor_less_than_the_rest_to_rest_bound(tmp_path):
+    """`tradeoff --tune-fuel` on one LQR point, a few iterations: the tuned gain is kept only if
+    the exact loop confirms it (else the LQR gain stays), and every design — LQR, LMI, tuned —
+    spends at least the bang-coast-bang bound, an independent physical limit."""
+    from coopsat.tradeoff import run_tradeoff
+
+    rows, _, _, _ = run_tradeoff([LMI, LQR], tmp_path / "t", scales_n=[0.1], coordinates=("hub",), figures=False,
+                                 tune_fuel=True, tune_iter=8)
+    (tuned,) = [r for r in rows if r["design"] == "tuned"]
+    assert tuned["settling_time_s"] is not None and tuned["settling_time_s"] <= tuned["start_settling_time_s"]
+    assert tuned["closed_loop_spectral_radius"] <= 0.999
+    assert tuned["fuel_l1_ns"] <= tuned["start_fuel_l1_ns"] * (1 + 1e-3)
+    for r in rows:
+        if r["settling_time_s"] is not None:
+            from coopsat.tradeoff import bound_curve
+
+            assert r["fuel_l1_ns"] >= float(bound_curve(LQR, [r["settling_time_s"]])[0])
+    assert "tuned on the fuel itself" in (tmp_path / "t" / "comparison.md").read_text()

@@ -239,3 +239,25 @@ def test_cli_objective_without_surrogate(capsys):
     line = _bad(capsys, ["--objective", "final_attitude_spread_deg", "--params", "controller.alpha"])
     assert "final_attitude_spread_deg" in line
     assert "sync_time_s" in line  # what can be tuned on here
+
+
+def test_cli_writes_a_replayable_tuned_scenario(capsys, tmp_path):
+    """The tuned file is the scenario with the tuned value in place: loading it and running it
+    gives the exact figure the tuner reported."""
+    import json
+
+    out = tmp_path / "tuned"
+    status = main(["tune", "consensus-sync-a-saturated", "--objective", "sync_time_s", "--params", "controller.alpha",
+                   "--set", "sim.t_final_s=20", "--max-iter", "2", "--out", str(out), "-q"])
+    assert status == 0, capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == ["tune.json", "tune.md", "tuned.toml"]
+    summary = json.loads((out / "tune.json").read_text())
+    scenario = load_scenario(out / "tuned.toml")
+    assert scenario.controller.alpha == pytest.approx(summary["values"]["controller.alpha"], rel=1e-12)
+    assert scenario.sim.t_final_s == 20.0  # the --set overrides are in the file too
+    # A second tuning into a folder that is not a tune folder is refused before any work.
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "keep.txt").write_text("x")
+    status = main(["tune", "consensus-sync-a-saturated", "--objective", "sync_time_s", "--params", "controller.alpha",
+                   "--out", str(tmp_path / "other"), "-q"])
+    assert status == 2 and "not a tune folder" in capsys.readouterr().err

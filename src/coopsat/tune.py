@@ -132,23 +132,25 @@ def resolve_params(built, paths):
     for role, place, table in tables:
         index = counters.get(role, 0)
         counters[role] = index + 1
-        dotted = _dotted(place).replace("network.delivery", "network")
-        by_place[dotted] = (role, index, table)
+        dotted = _dotted(place)
+        # Also by the names a user writes: `network` for its delivery table, `sensors` for
+        # the only sensor; the tuned file is written at the table's own place.
+        for alias in {dotted, dotted.replace("network.delivery", "network")}:
+            by_place[alias] = (role, index, table, dotted)
         if dotted.endswith(".0") and sum(1 for r, _, _ in tables if r == role) == 1:
-            by_place[dotted[:-2]] = (role, index, table)
-    params, offered_all = [], []
+            by_place[dotted[:-2]] = (role, index, table, dotted)
+    params = []
     for path in paths:
-        place, _, name = path.rpartition(".")
-        if place not in by_place:
-            raise TuneError(f"--params {clip_echo(path)}: no table '{clip_echo(place)}' in this scenario "
+        alias, _, name = path.rpartition(".")
+        if alias not in by_place:
+            raise TuneError(f"--params {clip_echo(path)}: no table '{clip_echo(alias)}' in this scenario "
                             f"(tables: {', '.join(sorted(by_place))})")
-        role, index, table = by_place[place]
+        role, index, table, place = by_place[alias]
         plugin = plugin_for(role, table)
         part = _part(built.system, role, index)
         offered = plugin.tunables(table, built.context, part) if plugin.tunables else {}
-        offered_all += [f"{place}.{k}" for k in offered]
         if name not in offered:
-            what = ", ".join(f"{place}.{k}" for k in offered) or "none"
+            what = ", ".join(f"{alias}.{k}" for k in offered) or "none"
             raise TuneError(f"--params {clip_echo(path)}: {table.kind} cannot tune '{clip_echo(name)}' (tunable here: {what})")
         tunable = offered[name]
         v0 = np.asarray(tunable.value, dtype=float)
@@ -360,9 +362,12 @@ def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10, polis
     starts, n_var = z0.shape
     both = lambda z: (stacked(z), jax.jacrev(stacked)(z))  # noqa: E731
     t0 = time.perf_counter()
-    vals0, jac0 = (np.asarray(a) for a in jax.jit(jax.vmap(both))(jnp.asarray(z0)))
     one = jax.jit(both)
-    one(jnp.asarray(z0[0]))
+    if starts == 1:  # no screening to do: one compiled program, not two
+        vals0, jac0 = (np.asarray(a)[None] for a in one(jnp.asarray(z0[0])))
+    else:
+        vals0, jac0 = (np.asarray(a) for a in jax.jit(jax.vmap(both))(jnp.asarray(z0)))
+        one(jnp.asarray(z0[0]))
     compile_s = time.perf_counter() - t0
     if not (np.all(np.isfinite(vals0[0])) and np.all(np.isfinite(jac0[0]))):
         raise TuneError("the surrogate objective or a constraint is not finite at the scenario's own values")
@@ -524,6 +529,11 @@ def constraint_met(spec, value):
     return value is not None and np.isfinite(value) and value <= spec.bound
 
 
+def _figure(x):
+    """A metric for a report line: ``never`` for a time that was never reached (None)."""
+    return "never" if x is None else f"{x:.6g}"
+
+
 def report_lines(result):
     """The tuning's summary: figures before and after, exact, beside the surrogate's."""
     lines = [f"{result.scenario}: tuned {', '.join(result.params)} in {result.iterations} iterations "
@@ -531,9 +541,8 @@ def report_lines(result):
              f"compile {result.compile_s:.1f} s, optimise {result.optimise_s:.1f} s, exact re-runs {result.rerun_s:.1f} s)"]
     for s in (result.objective, *result.constraints):
         b, a = result.exact_before[s.metric], result.exact_after[s.metric]
-        fmt = lambda x: "never" if x is None else f"{x:.6g}"  # noqa: E731
         verdict = "" if s.bound is None else ("  met" if constraint_met(s, a) else "  NOT MET on the exact loop")
-        lines.append(f"  {str(s):<32} exact before {fmt(b):>12}  exact after {fmt(a):>12}{verdict}")
+        lines.append(f"  {str(s):<32} exact before {_figure(b):>12}  exact after {_figure(a):>12}{verdict}")
     lines.append(f"  surrogate objective at the optimum: {result.surrogate_after['objective']:.6g}")
     for p, v in result.values.items():
         lines.append(f"  {p} = {np.array2string(np.asarray(v), precision=6, max_line_width=200)}")
@@ -546,7 +555,7 @@ def markdown(result):
     rows = ["| metric | exact before | exact after | constraint |", "|---|---|---|---|"]
     for s in (result.objective, *result.constraints):
         b, a = result.exact_before[s.metric], result.exact_after[s.metric]
-        rows.append(f"| {s.metric} | {b if b is not None else 'never'} | {a if a is not None else 'never'} | "
+        rows.append(f"| {s.metric} | {_figure(b)} | {_figure(a)} | "
                     f"{'objective' if s.bound is None else ('≤ %g: ' % s.bound) + ('met' if constraint_met(s, a) else 'NOT MET')} |")
     notes = "\n".join(f"- {n}" for n in result.surrogate_notes)
     return (f"# Tuning of {result.scenario}\n\nTuned: {', '.join(result.params)}; {result.iterations} SLSQP iterations, "

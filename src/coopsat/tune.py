@@ -268,6 +268,7 @@ class TuneResult:
     exact_before: dict
     exact_after: dict
     surrogate_after: dict
+    objective_in_metric_units: bool
     metrics_after: dict
     iterations: int
     compile_s: float
@@ -510,6 +511,7 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
         exact_before={s.metric: before.get(s.metric) for s in (obj_spec, *cons_specs)},
         exact_after={s.metric: after.get(s.metric) for s in (obj_spec, *cons_specs)}, metrics_after=after,
         surrogate_after={"objective": float(v[best, 0]), "constraints": v[best, 1:].tolist()},
+        objective_in_metric_units=surrogates(built)[obj_spec.metric].exact_in_metric_units,
         iterations=opt.iterations, compile_s=opt.compile_s, optimise_s=opt.optimise_s, rerun_s=rerun_s,
         warnings=[*opt.warnings, *(f"tuned scenario: {w}" for w in tuned_built.warnings)],
     )
@@ -543,7 +545,12 @@ def report_lines(result):
         b, a = result.exact_before[s.metric], result.exact_after[s.metric]
         verdict = "" if s.bound is None else ("  met" if constraint_met(s, a) else "  NOT MET on the exact loop")
         lines.append(f"  {str(s):<32} exact before {_figure(b):>12}  exact after {_figure(a):>12}{verdict}")
-    lines.append(f"  surrogate objective at the optimum: {result.surrogate_after['objective']:.6g}")
+    sur, exact = result.surrogate_after["objective"], result.exact_after[result.objective.metric]
+    if result.objective_in_metric_units and exact is not None:
+        lines.append(f"  surrogate's {result.objective.metric} at the optimum {sur:.6g}, exact loop {exact:.6g} "
+                     f"({100 * (sur - exact) / exact:+.2f} %: what the smoothing costs)")
+    else:
+        lines.append(f"  surrogate objective at the optimum: {sur:.6g} (not in the metric's units: a stand-in criterion)")
     for p, v in result.values.items():
         lines.append(f"  {p} = {np.array2string(np.asarray(v), precision=6, max_line_width=200)}")
     lines += [f"  warning: {w}" for w in result.warnings]

@@ -376,17 +376,22 @@ def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10, polis
     # SLSQP's first step is the negative gradient (its Hessian estimate starts as I): scaled so,
     # that step moves the variables by FIRST_STEP at most, not across the whole stable region.
     norm = max(float(np.linalg.norm(jac0[0, 0])) / FIRST_STEP, 1e-300)
-    cache = {}
+    cache, good = {}, {}
 
     def evaluate(x):
         key = x.tobytes()
         if key not in cache:
             cache.clear()
             v, j = (np.array(a) for a in one(jnp.asarray(x)))
-            if not (np.all(np.isfinite(v)) and np.all(np.isfinite(j))):
+            if np.all(np.isfinite(v)) and np.all(np.isfinite(j)):
+                good["x"] = x.copy()
+            else:
                 # A step that destabilises the loop gives NaN or inf: report it as far worse
-                # than the start, with no slope, so that the line search steps back.
-                v, j = 1e3 * (np.abs(vals0[0]) + 1.0), np.zeros_like(j)
+                # than the start, objective and constraints alike, sloping back towards the
+                # last point that ran, so that SLSQP has a way out.
+                back = x - good.get("x", x)
+                v = 1e3 * (np.abs(vals0[0]) + 1.0) + np.sum(back**2)
+                j = np.broadcast_to(2.0 * back, j.shape).copy()
             cache[key] = (v, j)
         return cache[key]
 
@@ -425,7 +430,7 @@ def minimise(stacked, z0, m, bounds, max_iter=50, report=None, ftol=1e-10, polis
 
 
 def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spread=0.3, max_iter=50, seed=0,
-         polish=1, report=print):
+         polish=1, retries=1, report=print):
     """Tune the named fields of a scenario by gradient, then re-run it exactly.
 
     Parameters
@@ -445,6 +450,9 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
         spread ``spread``), screened together in one ``vmap``.
     polish : int
         How many of the best screened starts SLSQP refines.
+    retries : int
+        Times to tune again, from the tuned point, when the exact re-run misses a constraint
+        the surrogate met (the surrogate's bound lowered by the miss).
     max_iter : int
         SLSQP iterations.
     seed : int
@@ -468,15 +476,11 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
     cons_specs = [parse_constraint(c) for c in constraints]
     built = prepare(load_scenario(ref, overrides))
     par = resolve_params(built, params)
-    f = loss_function(built, par, obj_spec, cons_specs)
     notes = smooth_system(built.system)[1]
     n_var = sum(p.size for p in par)
     m = len(cons_specs)
-
-    def stacked(z):  # (objective, constraints...) of one start
-        obj, cons = f(z)
-        return jnp.concatenate([obj[None], cons])
-
+    if not 1 <= polish <= starts:
+        raise TuneError(f"--polish {polish}: must be between 1 and --starts ({starts})")
     rng = np.random.default_rng(seed)
     z0 = np.zeros((starts, n_var))
     z0[1:] = spread * rng.standard_normal((starts - 1, n_var))
@@ -484,37 +488,66 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
     bounds = [(-LOG_BOUND, LOG_BOUND) if p.log else (None, None) for p in par for _ in range(p.size)]
     z0 = np.clip(z0, [lo if lo is not None else -np.inf for lo, _ in bounds], [hi if hi is not None else np.inf for _, hi in bounds])
 
-    def line(k, v):
-        cons = ", ".join(f"{c}: {g:+.3g}" for c, g in zip(cons_specs, v[1:]))
-        return f"  iter {k:3d}  {obj_spec.metric} surrogate {v[0]:.6g}" + (f"  constraints (≤ 0) {cons}" if m else "")
-
-    if not 1 <= polish <= starts:
-        raise TuneError(f"--polish {polish}: must be between 1 and --starts ({starts})")
-    opt = minimise(stacked, z0, m, bounds, max_iter, lambda k, v: report(line(k, v)), polish=polish)
-    best, v = opt.best, opt.values
-    values = [np.asarray(x) for x in _split(par, jnp.asarray(opt.z[best]))]
-    tuned = _overrides(par, values)
-
     t0 = time.perf_counter()
     before, _, _ = _exact_metrics(ref, overrides)
-    try:
-        after, _, tuned_built = _exact_metrics(ref, [*overrides, *tuned])
-    except ScenarioError as err:
-        raise TuneError(f"the tuned values do not make a valid scenario: {err}") from None
     rerun_s = time.perf_counter() - t0
+    used, history, warnings, iterations, compile_s, optimise_s = cons_specs, [], [], 0, 0.0, 0.0
+    for attempt in range(1 + retries):
+        f = loss_function(built, par, obj_spec, used)
+
+        def stacked(z, f=f):  # (objective, constraints...) of one start
+            obj, cons = f(z)
+            return jnp.concatenate([obj[None], cons])
+
+        def line(k, v, used=used):
+            cons = ", ".join(f"{c}: {g:+.3g}" for c, g in zip(used, v[1:]))
+            return f"  iter {k:3d}  {obj_spec.metric} surrogate {v[0]:.6g}" + (f"  constraints (≤ 0) {cons}" if m else "")
+
+        opt = minimise(stacked, z0, m, bounds, max_iter, lambda k, v: report(line(k, v)), polish=polish)
+        history += [{**h, "attempt": attempt} for h in opt.history]
+        iterations, compile_s, optimise_s = iterations + opt.iterations, compile_s + opt.compile_s, optimise_s + opt.optimise_s
+        warnings += opt.warnings
+        best, v = opt.best, opt.values
+        values = [np.asarray(x) for x in _split(par, jnp.asarray(opt.z[best]))]
+        tuned = _overrides(par, values)
+        t0 = time.perf_counter()
+        try:
+            after, _, tuned_built = _exact_metrics(ref, [*overrides, *tuned])
+        except ScenarioError as err:
+            raise TuneError(f"the tuned values do not make a valid scenario: {err}") from None
+        rerun_s += time.perf_counter() - t0
+        missed = [k for k, c in enumerate(cons_specs) if not constraint_met(c, after.get(c.metric))]
+        if not missed or attempt == retries:
+            break
+        # The exact loop (real dead zone, real saturation, the metric's own threshold) missed
+        # a constraint the smoothed loop met: ask the surrogate for that much more, from here.
+        used = [_tightened(u, c, after.get(c.metric)) if k in missed else u for k, (u, c) in enumerate(zip(used, cons_specs))]
+        warnings.append("exact loop missed " + ", ".join(f"{cons_specs[k]} ({_figure(after.get(cons_specs[k].metric))})" for k in missed)
+                        + "; tuned again with the surrogate asked for " + ", ".join(str(used[k]) for k in missed))
+        z0 = opt.z[best][None]
+        polish = 1
+        report(warnings[-1])
     return TuneResult(
         scenario=built.scenario.name, params=[p.path for p in par], objective=obj_spec, constraints=cons_specs,
         surrogate_notes=[surrogates(built)[s.metric].what for s in (obj_spec, *cons_specs)] + notes,
-        history=opt.history, best_start=int(best), starts=starts,
+        history=history, best_start=int(best), starts=starts,
         values={p.path: np.asarray(x).tolist() for p, x in zip(par, values)},
         tuned_toml=resolved_toml(tuned_built.scenario), overrides=tuned,
         exact_before={s.metric: before.get(s.metric) for s in (obj_spec, *cons_specs)},
         exact_after={s.metric: after.get(s.metric) for s in (obj_spec, *cons_specs)}, metrics_after=after,
         surrogate_after={"objective": float(v[best, 0]), "constraints": v[best, 1:].tolist()},
         objective_in_metric_units=surrogates(built)[obj_spec.metric].exact_in_metric_units,
-        iterations=opt.iterations, compile_s=opt.compile_s, optimise_s=opt.optimise_s, rerun_s=rerun_s,
-        warnings=[*opt.warnings, *(f"tuned scenario: {w}" for w in tuned_built.warnings)],
+        iterations=iterations, compile_s=compile_s, optimise_s=optimise_s, rerun_s=rerun_s,
+        warnings=[*warnings, *(f"tuned scenario: {w}" for w in tuned_built.warnings)],
     )
+
+
+def _tightened(used, spec, exact):
+    """The surrogate's bound for a constraint the exact loop missed: lowered by the excess
+    (``exact − bound``), or by 10 % of the bound's size when the exact figure is missing (a
+    time never reached)."""
+    excess = exact - spec.bound if exact is not None and np.isfinite(exact) else 0.1 * max(abs(spec.bound), 1e-12)
+    return Spec(used.metric, used.bound - excess)
 
 
 def _ranked(values):

@@ -10,9 +10,9 @@ under the constraints with JAX gradients; several starts run as one ``vmap`` and
 feasible one is kept. The tuned scenario is then re-run on the exact loop and every figure
 reported is the exact loop's, beside the surrogate's, so the cost of the surrogate is a number.
 
-Parametrisation: a positive scalar (a consensus gain) is tuned as ``θ0·e^z`` so that it stays
-positive; an array (a gain matrix) as ``θ0 + s ⊙ z`` with ``s`` the size of its entries (at
-least 5 % of the largest), so that every variable is of order one. The objective is divided
+Parametrisation: a positive field (a consensus gain, graph weights) is tuned as ``θ0·e^z`` so
+that it stays positive; any other (a gain matrix) as ``θ0 + s ⊙ z`` with ``s`` the size of its
+entries (at least 5 % of the largest of their column), so that every variable is of order one. The objective is divided
 by its value at the scenario's own parameters.
 """
 
@@ -38,7 +38,7 @@ FIRST_STEP = 0.1
 """Length of SLSQP's first step in the scaled variables (10 % of each parameter's size)."""
 
 LOG_BOUND = 3.0
-"""Bound on the variable of a positive scalar tuned as ``θ0·e^z``: ``|z| ≤ 3``."""
+"""Bound on the variable of a positive field tuned as ``θ0·e^z``: ``|z| ≤ 3``."""
 
 
 class TuneError(ValueError):
@@ -62,7 +62,7 @@ class Param:
         The table field.
     tunable : coopsat.plugins.Tunable
     log : bool
-        Tuned as ``θ0·e^z`` (a positive scalar), else ``θ0 + scale·z``.
+        Tuned as ``θ0·e^z`` (every entry positive), else ``θ0 + scale·z``.
     scale : ndarray
     """
 
@@ -154,7 +154,7 @@ def resolve_params(built, paths):
             raise TuneError(f"--params {clip_echo(path)}: {table.kind} cannot tune '{clip_echo(name)}' (tunable here: {what})")
         tunable = offered[name]
         v0 = np.asarray(tunable.value, dtype=float)
-        log = v0.ndim == 0 and v0 > 0
+        log = bool(np.all(v0 > 0))  # gains and graph weights stay positive
         # Each entry's own size, at least 5 % of the largest of its column (a gain matrix's
         # columns have different units: N/m beside N·s/m, three orders apart here).
         big = np.abs(v0).max(axis=0, keepdims=True) if v0.ndim == 2 else np.abs(v0).max()
@@ -285,7 +285,7 @@ def _overrides(params, values):
     for p, v in zip(params, values):
         for key, val in p.tunable.write(np.asarray(v)).items():
             text = tomli_w.dumps({"v": val}).strip()[len("v = "):].replace("\n", " ")
-            out.append(f"{p.place}.{key}={text}")
+            out.append(f"{key if p.tunable.root else p.place + '.' + key}={text}")
     return out
 
 
@@ -484,7 +484,7 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
     rng = np.random.default_rng(seed)
     z0 = np.zeros((starts, n_var))
     z0[1:] = spread * rng.standard_normal((starts - 1, n_var))
-    # A positive scalar moves at most a factor e^3 ≈ 20 either way from its start.
+    # A positive field moves at most a factor e^3 ≈ 20 either way from its start.
     bounds = [(-LOG_BOUND, LOG_BOUND) if p.log else (None, None) for p in par for _ in range(p.size)]
     z0 = np.clip(z0, [lo if lo is not None else -np.inf for lo, _ in bounds], [hi if hi is not None else np.inf for _, hi in bounds])
 

@@ -124,11 +124,15 @@ class Tunable:
         so that the run is differentiable with respect to ``value``.
     write : callable
         ``value -> dict``: the fields of the plug-in's table that the tuned scenario file sets.
+    root : bool
+        ``write``'s keys are override paths from the scenario's root (a field that lives in
+        another table: the network's graph for its delivery model).
     """
 
     value: object
     apply: object
     write: object
+    root: bool = False
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
-from coopsat.plugins import DesignError, Plugin, register
+from coopsat.plugins import DesignError, Plugin, Tunable, register
 from coopsat.plugins.tables import MAX_GAIN, MAX_TIME_S, Record, Table
 
 
@@ -24,7 +24,34 @@ def _build_ideal(table, ctx):
     return IdealNetwork(*as_arrays((links.src, links.dst, links.weight, ctx.switch_ticks)))
 
 
-register(Plugin("network", "ideal", IdealDelivery, _build_ideal))
+def _edge_weight_tunables(table, ctx, part):
+    """``edges``: the weights of an edge-list graph (``[network] kind = "edges"``, no
+    switches), in the file's order. The links' weights are linear in them (each edge's
+    adjacency, read at the links' receivers and transmitters), so they enter traced."""
+    from dataclasses import replace
+
+    import jax.numpy as jnp
+    import numpy as np
+
+    from coopsat.network import topology
+
+    graph = ctx.scenario.network
+    if graph.kind != "edges" or graph.switches:
+        return {}
+    index = {name: k for k, name in enumerate(ctx.names)}
+    basis = np.stack([topology.adjacency_from_edges(ctx.n, [(index[a], index[b], 1.0)], graph.directed) for a, b, _ in graph.edges])
+    per_link = jnp.asarray(basis[:, np.asarray(part.dst), np.asarray(part.src)])  # (edges, links…)
+
+    def apply(p, w):
+        return replace(p, weight=jnp.tensordot(w, per_link, axes=1)[None])
+
+    def write(w):
+        return {"network.edges": [[a, b, float(v)] for (a, b, _), v in zip(graph.edges, np.asarray(w))]}
+
+    return {"edges": Tunable(np.array([w for _, _, w in graph.edges], dtype=float), apply, write, root=True)}
+
+
+register(Plugin("network", "ideal", IdealDelivery, _build_ideal, tunables=_edge_weight_tunables))
 
 
 class RandomDelay(Table):

@@ -261,3 +261,21 @@ def test_cli_writes_a_replayable_tuned_scenario(capsys, tmp_path):
     status = main(["tune", "consensus-sync-a-saturated", "--objective", "sync_time_s", "--params", "controller.alpha",
                    "--out", str(tmp_path / "other"), "-q"])
     assert status == 2 and "not a tune folder" in capsys.readouterr().err
+
+
+def test_graph_weights_enter_the_links_as_the_builder_puts_them():
+    """network.edges: the tunable's traced weights equal those the scenario builder makes from
+    the same edge list (an independent path: adjacency, then links), and the tuned file sets
+    them where the graph is."""
+    from coopsat.tune import _overrides, with_params
+
+    built = prepare(load_scenario("consensus-sync-a-saturated", ["sim.t_final_s=1"]))
+    (p,) = resolve_params(built, ["network.edges"])
+    w0 = np.asarray(p.tunable.value)
+    np.testing.assert_array_equal(w0, [1.0, 0.5, 0.5, 0.5, 0.5])  # SPEC §1 topology (a)
+    w = np.array([0.3, 1.7, 0.9, 2.2, 0.4])
+    traced = with_params(built.system, [p], [jnp.asarray(w)]).network.weight
+    rebuilt = prepare(load_scenario("consensus-sync-a-saturated", ["sim.t_final_s=1", *_overrides([p], [w])]))
+    np.testing.assert_allclose(np.asarray(traced), np.asarray(rebuilt.system.network.weight), rtol=0, atol=1e-15)
+    assert not np.allclose(np.asarray(traced), np.asarray(built.system.network.weight))
+    assert [e[2] for e in rebuilt.scenario.network.edges] == pytest.approx(w.tolist())

@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|margin|design|topology|tradeoff|sweep|tune|bench``.
+"""Command line: ``coopsat list|show|validate|run|margin|design|topology|tradeoff|sweep|tune|campaign|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -22,9 +22,10 @@ def _input_errors():
     from coopsat.sim.engine import NonFiniteStateError
     from coopsat.sweep import SweepError
     from coopsat.tradeoff import TradeoffError
+    from coopsat.campaign.spec import CampaignError
     from coopsat.tune import TuneError
 
-    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError)
+    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError)
 
 
 def _cmd_list(args):
@@ -316,6 +317,30 @@ def _cmd_tune(args):
     return 0
 
 
+def _cmd_campaign_run(args):
+    from coopsat.campaign.runner import run_campaign
+
+    if args.workers is not None and args.workers < 1:
+        from coopsat.campaign.spec import CampaignError
+
+        raise CampaignError(f"--workers {args.workers}: must be at least 1")
+    out = run_campaign(args.file, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+    print(f"{args.file}: {out['runs']} runs in {out['batches']} batches ({out['skipped_batches']} already on disk); "
+          f"{out['failed']} failed in this call; {out['wall_s']:.1f} s; results in {args.out}/batches")
+    return 0
+
+
+def _cmd_campaign_replay(args):
+    from coopsat.campaign.runner import replay
+
+    stored, replayed, identical = replay(args.dir, args.run_id)
+    print(f"run {args.run_id}: {'identical to the stored result, bit for bit' if identical else 'DIFFERS from the stored result'}")
+    for k in stored:
+        if k not in ("run_id", "params") and stored[k] != replayed.get(k):
+            print(f"  {k}: stored {stored[k]!r}, replayed {replayed.get(k)!r}")
+    return 0 if identical else 1
+
+
 def _cmd_bench(args):
     from coopsat.bench import run_benchmarks
 
@@ -428,6 +453,21 @@ def build_parser():
     tn.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
     tn.add_argument("--quiet", "-q", action="store_true", help="no per-iteration lines")
     tn.set_defaults(func=_cmd_tune)
+
+    camp = sub.add_parser("campaign", help="Monte Carlo campaigns: dispersed runs on Dask, resumable (docs/campaigns.md)")
+    camp_sub = camp.add_subparsers(dest="campaign_command", required=True)
+    c_run = camp_sub.add_parser("run", help="run (or resume) a campaign file into a folder")
+    c_run.add_argument("file", help="campaign .toml")
+    c_run.add_argument("--out", required=True, metavar="DIR", help="campaign folder (resumed when it holds this campaign)")
+    where = c_run.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, help="local worker processes (default 1)")
+    where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="an existing Dask scheduler")
+    c_run.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    c_run.set_defaults(func=_cmd_campaign_run)
+    c_rep = camp_sub.add_parser("replay", help="run one stored run again alone and compare it bit for bit")
+    c_rep.add_argument("dir", help="campaign folder")
+    c_rep.add_argument("run_id", type=int)
+    c_rep.set_defaults(func=_cmd_campaign_replay)
 
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")

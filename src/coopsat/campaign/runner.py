@@ -1,0 +1,230 @@
+"""Running a campaign on Dask: batches of runs as tasks, one Parquet file per finished batch.
+
+Run ids ``0 … runs−1`` are cut into batches of ``batch_size``; a task runs one batch
+(:func:`run_batch_rows`): each run's values are drawn from its own seed sequence, its scenario
+built (an invalid dispersed scenario fails that run alone), the valid runs of one compiled
+structure simulated as one vmapped call, and every run's metrics computed as ``coopsat run``
+computes them. A batch in which a run turns non-finite is run again one run at a time, so the
+poisoned run fails alone. The driver writes each finished batch as
+``batches/batch_NNNNNN.parquet`` (written beside, then renamed: a file there is complete), so
+``campaign run`` on an existing folder skips the batches that are there: nothing is run twice
+or lost, even after SIGKILL.
+"""
+
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from coopsat.campaign.spec import (
+    CampaignError,
+    base_values,
+    bundled_campaign,
+    draw_run,
+    load_campaign,
+    overrides_for,
+    run_seed_sequences,
+)
+
+MARKER = "campaign.json"
+"""Written into every campaign folder first: what is being run (a resumed run must match it)."""
+
+
+def batch_ids(runs, batch_size):
+    """Run ids of every batch: ``[[0 … b−1], [b … 2b−1], …]``."""
+    return [list(range(s, min(s + batch_size, runs))) for s in range(0, runs, batch_size)]
+
+
+def batch_file(out_dir, b):
+    return Path(out_dir) / "batches" / f"batch_{b:06d}.parquet"
+
+
+def run_overrides(campaign, fields, bases, run_id, seqs=None):
+    """The applied values, seed and ``--set`` strings of one run."""
+    seq = (seqs or run_seed_sequences(campaign.master_seed, campaign.runs))[run_id]
+    applied, seed = draw_run(campaign, fields, bases, seq)
+    return applied, seed, [*campaign.overrides, *overrides_for(applied, seed)]
+
+
+def run_batch_rows(campaign_path, run_ids):
+    """Run one batch and return one row (dict) per run: ``run_id``, ``status`` ("ok" or
+    "failed"), ``reason``, ``seed``, ``params`` (JSON of the applied values), then every
+    metric. Executed on a Dask worker; never raises for a failing run."""
+    from coopsat.pipeline import analyse, prepare
+    from coopsat.scenarios.load import ScenarioError, load_scenario
+    from coopsat.sim.engine import NonFiniteStateError
+    from coopsat.sweep import simulate_runs
+
+    campaign, ref, fields = load_campaign(campaign_path)
+    bases = base_values(ref, campaign.overrides, fields)
+    seqs = run_seed_sequences(campaign.master_seed, campaign.runs)
+    rows, builds, where = {}, [], []
+    for k in run_ids:
+        applied, seed, overrides = run_overrides(campaign, fields, bases, k, seqs)
+        row = {"run_id": k, "status": "ok", "reason": "", "seed": seed, "params": json.dumps(applied)}
+        try:
+            builds.append(prepare(load_scenario(ref, overrides)))
+            where.append(k)
+        except ScenarioError as err:
+            row.update(status="failed", reason=f"invalid scenario: {err}")
+        rows[k] = row
+
+    def finish(ids, blds):
+        datasets, _, _ = simulate_runs(blds)
+        for k, b, ds in zip(ids, blds, datasets):
+            metrics, _ = analyse(b, ds, compare=False)
+            rows[k].update({name: _scalar(v) for name, v in metrics.items()})
+
+    try:
+        finish(where, builds)
+    except NonFiniteStateError:
+        for k, b in zip(where, builds):  # one at a time: only the poisoned run fails
+            try:
+                finish([k], [b])
+            except NonFiniteStateError as err:
+                rows[k].update(status="failed", reason=str(err))
+    return [rows[k] for k in run_ids]
+
+
+def _scalar(v):
+    return None if v is None else float(v)
+
+
+def write_batch(out_dir, b, rows):
+    """Write one batch's rows as Parquet, atomically (a temporary file renamed into place)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    names = list(dict.fromkeys(k for r in rows for k in r))
+    table = pa.table({k: [r.get(k) for r in rows] for k in names})
+    path = batch_file(out_dir, b)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    pq.write_table(table, tmp)
+    os.replace(tmp, path)
+
+
+def read_results(out_dir):
+    """Every finished run of a campaign folder as a pandas-free dict of columns (pyarrow Table)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    files = sorted((Path(out_dir) / "batches").glob("batch_*.parquet"))
+    if not files:
+        return pa.table({})
+    return pa.concat_tables([pq.read_table(f) for f in files], promote_options="default")
+
+
+def _start_folder(out_dir, campaign_path, campaign):
+    """Create the folder (or check that an existing one holds this same campaign)."""
+    out_dir = Path(out_dir)
+    spec = {"campaign": campaign.model_dump(), "campaign_file": str(Path(campaign_path).resolve())}
+    marker = out_dir / MARKER
+    if out_dir.exists():
+        if not marker.is_file():
+            raise CampaignError(f"--out {out_dir}: exists and is not a campaign folder (no {MARKER}); choose another")
+        old = json.loads(marker.read_text())
+        if old["campaign"] != spec["campaign"]:
+            raise CampaignError(f"--out {out_dir}: holds another campaign (a different file or settings); choose another folder")
+        return
+    (out_dir / "batches").mkdir(parents=True)
+    tmp = marker.with_name(f".{MARKER}.tmp")
+    tmp.write_text(json.dumps(spec, indent=2) + "\n")
+    os.replace(tmp, marker)
+
+
+def client_for(workers=None, scheduler=None, connect_timeout_s=5.0):
+    """A Dask client: an existing scheduler at ``scheduler`` (tcp://host:port), else a
+    LocalCluster of ``workers`` processes with one thread each.
+
+    Raises
+    ------
+    CampaignError
+        When the scheduler cannot be reached within ``connect_timeout_s``.
+    """
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout=f"{connect_timeout_s}s")
+        except (OSError, TimeoutError) as err:
+            raise CampaignError(f"--scheduler {scheduler}: cannot reach it within {connect_timeout_s:g} s ({type(err).__name__})") from None
+    cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address=None)
+    return Client(cluster)
+
+
+def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=False):
+    """Run (or resume) a campaign into ``out_dir``.
+
+    Returns
+    -------
+    dict
+        ``runs``, ``batches``, ``skipped_batches`` (already on disk), ``failed`` (runs),
+        ``wall_s``.
+    """
+    campaign_path = bundled_campaign(campaign_path)
+    campaign, _, _ = load_campaign(campaign_path)
+    _start_folder(out_dir, campaign_path, campaign)
+    batches = batch_ids(campaign.runs, campaign.batch_size)
+    todo = [b for b in range(len(batches)) if not batch_file(out_dir, b).is_file()]
+    t0 = time.perf_counter()
+    failed = 0
+    if todo:
+        from dask.distributed import as_completed
+
+        client = client_for(workers, scheduler)
+        bar = None
+        if progress:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=campaign.runs, initial=campaign.runs - sum(len(batches[b]) for b in todo), unit="run", desc="campaign")
+        try:
+            path = str(Path(campaign_path).resolve())
+            futures = {client.submit(run_batch_rows, path, batches[b], key=f"batch-{b}-{time.time_ns()}", pure=False): b for b in todo}
+            for future in as_completed(futures):
+                b = futures[future]
+                rows = future.result()
+                write_batch(out_dir, b, rows)
+                failed += sum(r["status"] != "ok" for r in rows)
+                if bar is not None:
+                    bar.update(len(rows))
+        finally:
+            if bar is not None:
+                bar.close()
+            cluster = client.cluster
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    return {"runs": campaign.runs, "batches": len(batches), "skipped_batches": len(batches) - len(todo), "failed": failed,
+            "wall_s": time.perf_counter() - t0}
+
+
+def replay(out_dir, run_id):
+    """Run one stored run again, alone, and compare its metrics with the stored ones.
+
+    Returns
+    -------
+    (stored, replayed, identical)
+        Dicts of the metrics; ``identical``: every number equal bit for bit.
+    """
+    out_dir = Path(out_dir)
+    marker = out_dir / MARKER
+    if not marker.is_file():
+        raise CampaignError(f"{out_dir}: not a campaign folder (no {MARKER})")
+    spec = json.loads(marker.read_text())
+    table = read_results(out_dir)
+    if table.num_rows == 0 or run_id not in set(table.column("run_id").to_pylist()):
+        raise CampaignError(f"run {run_id}: not among the finished runs of {out_dir}")
+    stored = next(r for r in table.to_pylist() if r["run_id"] == run_id)
+    rows = run_batch_rows(spec["campaign_file"], [run_id])
+    replayed = rows[0]
+    keys = [k for k in stored if k not in ("run_id",)]
+    identical = all(_same(stored.get(k), replayed.get(k)) for k in keys)
+    return stored, replayed, identical
+
+
+def _same(a, b):
+    if isinstance(a, float) and isinstance(b, float):
+        return np.float64(a).tobytes() == np.float64(b).tobytes() or (np.isnan(a) and np.isnan(b))
+    return a == b

@@ -341,6 +341,13 @@ def _cmd_campaign_replay(args):
     return 0 if identical else 1
 
 
+def _cmd_campaign_report(args):
+    from coopsat.campaign.report import write_report
+
+    print(f"wrote {write_report(args.dir)}")
+    return 0
+
+
 def _cmd_bench(args):
     from coopsat.bench import run_benchmarks
 
@@ -468,6 +475,9 @@ def build_parser():
     c_rep.add_argument("dir", help="campaign folder")
     c_rep.add_argument("run_id", type=int)
     c_rep.set_defaults(func=_cmd_campaign_replay)
+    c_report = camp_sub.add_parser("report", help="statistics, failures, sensitivities and figures in DIR/report/index.html")
+    c_report.add_argument("dir", help="campaign folder")
+    c_report.set_defaults(func=_cmd_campaign_report)
 
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")

@@ -4,8 +4,9 @@ self-contained HTML page (figures embedded) beside its PNGs.
 Statistics per metric over the runs that finished with it (count, mean, σ, min, P1, P5, P50,
 P95, P99, max); the failed runs with their reason and parameters; and for each metric the
 dispersed parameters it is most sensitive to, by Spearman rank correlation over the runs
-(each component of a vector parameter on its own). Time-series envelopes need stored time
-series, which campaigns do not write yet.
+(each component of a vector parameter on its own); and, for every time series the campaign
+kept, the envelope over the runs (mean, ±3σ, min–max) of its size: the norm over its
+components, the largest over spacecraft.
 """
 
 import base64
@@ -16,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.campaign.runner import MARKER, read_results
+from coopsat.campaign.runner import MARKER, read_results, read_series
 from coopsat.campaign.spec import CampaignError
 from coopsat.folders import atomic_folder
 
@@ -74,6 +75,20 @@ def sensitivities(rows, top=3):
     return out
 
 
+def series_sizes(series):
+    """Per kept variable, its size over time for every run, ``(runs, T)``: the norm over its
+    last (component) dimension, then the largest over the remaining ones (spacecraft)."""
+    out = {}
+    for name, da in series.data_vars.items():
+        v = np.asarray(da.transpose("run", "time", ...).values, dtype=float)
+        if v.ndim > 2:
+            v = np.linalg.norm(v, axis=-1)
+        while v.ndim > 2:
+            v = np.nanmax(v, axis=-1)
+        out[name] = v
+    return out
+
+
 def _png(fig):
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
@@ -123,6 +138,13 @@ def write_report(out_dir):
                 y = np.array([np.nan if r.get(name) is None else r[name] for r in ok], dtype=float)
                 figures[f"scatter_{name}"] = _png(scatter_figure(params[p], y, p, name, rho))
     parts.append("</table>")
+    series = read_series(out_dir)
+    if series is not None:
+        from coopsat.plots.campaign import envelope_figure
+
+        t = np.asarray(series["time"].values, dtype=float)
+        for name, v in series_sizes(series).items():
+            figures[f"envelope_{name}"] = _png(envelope_figure(t, v, f"|{name}| (largest over spacecraft)"))
     parts.append(f"<h2>Failed runs ({len(failed)})</h2>")
     if failed:
         parts.append("<table><tr><th>run</th><th>reason</th><th>parameters</th></tr>" + "".join(

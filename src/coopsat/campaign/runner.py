@@ -49,9 +49,15 @@ def run_overrides(campaign, fields, bases, run_id, seqs=None):
 
 
 def run_batch_rows(campaign_path, run_ids):
-    """Run one batch and return one row (dict) per run: ``run_id``, ``status`` ("ok" or
-    "failed"), ``reason``, ``seed``, ``params`` (JSON of the applied values), then every
-    metric. Executed on a Dask worker; never raises for a failing run."""
+    """One row (dict) per run of a batch (:func:`run_batch`'s rows)."""
+    return run_batch(campaign_path, run_ids)[0]
+
+
+def run_batch(campaign_path, run_ids):
+    """Run one batch: one row (dict) per run — ``run_id``, ``status`` ("ok" or "failed"),
+    ``reason``, ``seed``, ``params`` (JSON of the applied values), then every metric — and the
+    campaign's ``timeseries`` of the ok runs (an xarray Dataset with a ``run`` dimension, or
+    None). Executed on a Dask worker; never raises for a failing run."""
     from coopsat.pipeline import analyse, prepare
     from coopsat.scenarios.load import ScenarioError, load_scenario
     from coopsat.sim.engine import NonFiniteStateError
@@ -71,11 +77,15 @@ def run_batch_rows(campaign_path, run_ids):
             row.update(status="failed", reason=f"invalid scenario: {err}")
         rows[k] = row
 
+    series = {}
+
     def finish(ids, blds):
         datasets, _, _ = simulate_runs(blds)
         for k, b, ds in zip(ids, blds, datasets):
             metrics, _ = analyse(b, ds, compare=False)
             rows[k].update({name: _scalar(v) for name, v in metrics.items()})
+            if campaign.timeseries:
+                series[k] = ds[campaign.timeseries].isel(time=slice(None, None, campaign.decimate))
 
     try:
         finish(where, builds)
@@ -85,17 +95,44 @@ def run_batch_rows(campaign_path, run_ids):
                 finish([k], [b])
             except NonFiniteStateError as err:
                 rows[k].update(status="failed", reason=str(err))
-    return [rows[k] for k in run_ids]
+    kept = None
+    if series:
+        import xarray as xr
+
+        ids = [k for k in run_ids if k in series]
+        kept = xr.concat([series[k].drop_attrs() for k in ids], dim="run").assign_coords(run=ids)
+        # Text labels (spacecraft names, component letters) go to attributes: Zarr v3 has no
+        # specified fixed-width string type.
+        labels = [c for c in kept.coords if kept[c].dtype.kind == "U"]
+        kept = kept.drop_vars(labels).assign_attrs({f"{c}_labels": [str(v) for v in kept[c].values] for c in labels})
+    return [rows[k] for k in run_ids], kept
 
 
 def _scalar(v):
     return None if v is None else float(v)
 
 
-def write_batch(out_dir, b, rows):
-    """Write one batch's rows as Parquet, atomically (a temporary file renamed into place)."""
+def series_file(out_dir, b):
+    return Path(out_dir) / "timeseries" / f"batch_{b:06d}.zarr"
+
+
+def write_batch(out_dir, b, rows, series=None):
+    """Write one batch: its time series (Zarr, when kept) first, then its rows as Parquet,
+    each atomically (written beside, renamed into place). The Parquet file is the batch's
+    completion mark: when it exists, so does everything else of the batch."""
+    import shutil
+
     import pyarrow as pa
     import pyarrow.parquet as pq
+
+    if series is not None:
+        target = series_file(out_dir, b)
+        target.parent.mkdir(exist_ok=True)
+        tmp_dir = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+        series.to_zarr(tmp_dir, mode="w", consolidated=False)
+        shutil.rmtree(target, ignore_errors=True)  # a leftover of a killed run of this batch
+        os.replace(tmp_dir, target)
 
     names = list(dict.fromkeys(k for r in rows for k in r))
     table = pa.table({k: [r.get(k) for r in rows] for k in names})
@@ -103,6 +140,17 @@ def write_batch(out_dir, b, rows):
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     pq.write_table(table, tmp)
     os.replace(tmp, path)
+
+
+def read_series(out_dir):
+    """Every stored time series of a campaign folder, concatenated over runs (xarray), or None."""
+    import xarray as xr
+
+    stores = sorted((Path(out_dir) / "timeseries").glob("batch_*.zarr"))
+    stores = [s for s in stores if batch_file(out_dir, int(s.stem.split("_")[1])).is_file()]
+    if not stores:
+        return None
+    return xr.concat([xr.open_zarr(s, consolidated=False).load() for s in stores], dim="run")
 
 
 def read_results(out_dir):
@@ -114,6 +162,20 @@ def read_results(out_dir):
     if not files:
         return pa.table({})
     return pa.concat_tables([pq.read_table(f) for f in files], promote_options="default")
+
+
+def _check_timeseries(campaign, ref):
+    """Every output named in ``timeseries`` is one the scenario records."""
+    if not campaign.timeseries:
+        return
+    from coopsat.pipeline import prepare
+    from coopsat.scenarios.load import load_scenario
+    from coopsat.sim.engine import output_specs
+
+    known = set(output_specs(prepare(load_scenario(ref, campaign.overrides)).system))
+    unknown = [name for name in campaign.timeseries if name not in known]
+    if unknown:
+        raise CampaignError(f"timeseries: '{unknown[0]}' is not recorded by this scenario (recorded: {', '.join(sorted(known))})")
 
 
 def _start_folder(out_dir, campaign_path, campaign):
@@ -164,7 +226,8 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
         ``wall_s``.
     """
     campaign_path = bundled_campaign(campaign_path)
-    campaign, _, _ = load_campaign(campaign_path)
+    campaign, ref, _ = load_campaign(campaign_path)
+    _check_timeseries(campaign, ref)
     _start_folder(out_dir, campaign_path, campaign)
     batches = batch_ids(campaign.runs, campaign.batch_size)
     todo = [b for b in range(len(batches)) if not batch_file(out_dir, b).is_file()]
@@ -181,11 +244,11 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
             bar = tqdm(total=campaign.runs, initial=campaign.runs - sum(len(batches[b]) for b in todo), unit="run", desc="campaign")
         try:
             path = str(Path(campaign_path).resolve())
-            futures = {client.submit(run_batch_rows, path, batches[b], key=f"batch-{b}-{time.time_ns()}", pure=False): b for b in todo}
+            futures = {client.submit(run_batch, path, batches[b], key=f"batch-{b}-{time.time_ns()}", pure=False): b for b in todo}
             for future in as_completed(futures):
                 b = futures[future]
-                rows = future.result()
-                write_batch(out_dir, b, rows)
+                rows, series = future.result()
+                write_batch(out_dir, b, rows, series)
                 failed += sum(r["status"] != "ok" for r in rows)
                 if bar is not None:
                     bar.update(len(rows))

@@ -6,6 +6,8 @@ runs = 1000
 master_seed = 2026
 batch_size = 50                        # runs per task (one compiled, vmapped call)
 overrides = ["sim.t_final_s=100"]      # applied to every run, before the dispersions
+timeseries = ["omega"]                 # recorded outputs kept per run (Zarr), optional
+decimate = 10                          # every 10th sample of them
 
 [[dispersions]]
 field = "spacecraft.*.inertia_kgm2"    # `*`: every element of that list
@@ -83,6 +85,10 @@ class Campaign(BaseModel):
     batch_size: int = Field(64, gt=0, le=100_000, description="Runs per task (one compiled, vmapped call).")
     overrides: list[str] = Field(default_factory=list, description="`key.path=value` applied to every run first.")
     dispersions: list[Dispersion] = Field(default_factory=list)
+    timeseries: list[str] = Field(
+        default_factory=list, description="Recorded outputs to keep per run (Zarr), e.g. [\"omega\"]; none by default."
+    )
+    decimate: int = Field(1, gt=0, le=1_000_000, description="Keep every decimate-th sample of the time series.")
     description: str = ""
 
 

@@ -36,3 +36,24 @@ def scatter_figure(x, y, x_name, y_name, rho):
     ax.set_ylabel(y_name)
     ax.set_title(f"Spearman ρ = {rho:+.2f}", fontsize="small")
     return fig
+
+
+def envelope_figure(t_s, values, name):
+    """A quantity over time across the runs: mean, mean ± 3σ and the min–max envelope.
+
+    Parameters
+    ----------
+    t_s : (T,)
+    values : (runs, T)
+    """
+    fig = Figure(figsize=(6.5, 3.8), layout="constrained")
+    ax = fig.add_subplot()
+    mean, std = np.nanmean(values, axis=0), np.nanstd(values, axis=0)
+    ax.fill_between(t_s, np.nanmin(values, axis=0), np.nanmax(values, axis=0), color="0.88", label="min–max")
+    ax.plot(t_s, mean, color="k", lw=1.2, label="mean")
+    ax.plot(t_s, mean + 3 * std, color="k", lw=0.8, ls="--", label="mean ± 3σ")
+    ax.plot(t_s, mean - 3 * std, color="k", lw=0.8, ls="--")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel(name)
+    ax.legend(fontsize="x-small")
+    return fig

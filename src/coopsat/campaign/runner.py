@@ -223,7 +223,8 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     -------
     dict
         ``runs``, ``batches``, ``skipped_batches`` (already on disk), ``failed`` (runs),
-        ``wall_s``.
+        ``wall_s``, ``worker_peak_rss_mb`` (the largest worker's peak memory; None when
+        nothing ran).
     """
     campaign_path = bundled_campaign(campaign_path)
     campaign, ref, _ = load_campaign(campaign_path)
@@ -232,7 +233,7 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     batches = batch_ids(campaign.runs, campaign.batch_size)
     todo = [b for b in range(len(batches)) if not batch_file(out_dir, b).is_file()]
     t0 = time.perf_counter()
-    failed = 0
+    failed, peak_mb = 0, None
     if todo:
         from dask.distributed import as_completed
 
@@ -252,6 +253,7 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
                 failed += sum(r["status"] != "ok" for r in rows)
                 if bar is not None:
                     bar.update(len(rows))
+            peak_mb = max(client.run(_peak_rss_mb).values(), default=None)
         finally:
             if bar is not None:
                 bar.close()
@@ -260,7 +262,14 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
             if cluster is not None:
                 cluster.close()
     return {"runs": campaign.runs, "batches": len(batches), "skipped_batches": len(batches) - len(todo), "failed": failed,
-            "wall_s": time.perf_counter() - t0}
+            "wall_s": time.perf_counter() - t0, "worker_peak_rss_mb": peak_mb}
+
+
+def _peak_rss_mb():
+    """This process's peak resident memory, MB (run on every worker)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def replay(out_dir, run_id):

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from coopsat.campaign.spec import (
+    Campaign,
     CampaignError,
     base_values,
     bundled_campaign,
@@ -41,41 +42,64 @@ def batch_file(out_dir, b):
     return Path(out_dir) / "batches" / f"batch_{b:06d}.parquet"
 
 
-def run_overrides(campaign, fields, bases, run_id, seqs=None):
-    """The applied values, seed and ``--set`` strings of one run."""
+def make_job(campaign_path):
+    """Everything a worker needs to run any batch, as plain data: the campaign, the scenario
+    as resolved TOML text (``extends`` and the campaign's ``overrides`` applied) and the
+    dispersed paths. Workers need neither the files nor a shared disk, and a stored job
+    replays a run after the files have changed.
+
+    Returns
+    -------
+    dict
+        ``campaign`` (the validated file as a dict), ``scenario_toml``, ``fields``.
+    """
+    from coopsat.scenarios.load import load_scenario, resolved_toml
+
+    campaign, ref, fields = load_campaign(campaign_path)
+    return {"campaign": campaign.model_dump(), "scenario_toml": resolved_toml(load_scenario(ref, campaign.overrides)),
+            "fields": fields}
+
+
+def run_overrides(job, run_id, seqs=None):
+    """The applied values, seed and ``--set`` strings (on the job's scenario) of one run."""
+    campaign = Campaign.model_validate(job["campaign"])
     seq = (seqs or run_seed_sequences(campaign.master_seed, campaign.runs))[run_id]
-    applied, seed = draw_run(campaign, fields, bases, seq)
-    return applied, seed, [*campaign.overrides, *overrides_for(applied, seed)]
+    applied, seed = draw_run(campaign, job["fields"], base_values(job), seq)
+    return applied, seed, overrides_for(applied, seed)
 
 
 def run_batch_rows(campaign_path, run_ids):
-    """One row (dict) per run of a batch (:func:`run_batch`'s rows)."""
-    return run_batch(campaign_path, run_ids)[0]
+    """One row (dict) per run of a batch of a campaign file (:func:`run_batch`'s rows)."""
+    return run_batch(make_job(campaign_path), run_ids)[0]
 
 
-def run_batch(campaign_path, run_ids):
+def run_batch(job, run_ids):
     """Run one batch: one row (dict) per run — ``run_id``, ``status`` ("ok" or "failed"),
     ``reason``, ``seed``, ``params`` (JSON of the applied values), then every metric — and the
     campaign's ``timeseries`` of the ok runs (an xarray Dataset with a ``run`` dimension, or
     None). Executed on a Dask worker; never raises for a failing run."""
+    import tempfile
+
     from coopsat.pipeline import analyse, prepare
     from coopsat.scenarios.load import ScenarioError, load_scenario
     from coopsat.sim.engine import NonFiniteStateError
     from coopsat.sweep import simulate_runs
 
-    campaign, ref, fields = load_campaign(campaign_path)
-    bases = base_values(ref, campaign.overrides, fields)
+    campaign = Campaign.model_validate(job["campaign"])
     seqs = run_seed_sequences(campaign.master_seed, campaign.runs)
     rows, builds, where = {}, [], []
-    for k in run_ids:
-        applied, seed, overrides = run_overrides(campaign, fields, bases, k, seqs)
-        row = {"run_id": k, "status": "ok", "reason": "", "seed": seed, "params": json.dumps(applied)}
-        try:
-            builds.append(prepare(load_scenario(ref, overrides)))
-            where.append(k)
-        except ScenarioError as err:
-            row.update(status="failed", reason=f"invalid scenario: {err}")
-        rows[k] = row
+    with tempfile.TemporaryDirectory() as tmp:
+        scenario = Path(tmp) / "scenario.toml"
+        scenario.write_text(job["scenario_toml"])
+        for k in run_ids:
+            applied, seed, overrides = run_overrides(job, k, seqs)
+            row = {"run_id": k, "status": "ok", "reason": "", "seed": seed, "params": json.dumps(applied)}
+            try:
+                builds.append(prepare(load_scenario(scenario, overrides)))
+                where.append(k)
+            except ScenarioError as err:
+                row.update(status="failed", reason=f"invalid scenario: {err}")
+            rows[k] = row
 
     series = {}
 
@@ -178,17 +202,18 @@ def _check_timeseries(campaign, ref):
         raise CampaignError(f"timeseries: '{unknown[0]}' is not recorded by this scenario (recorded: {', '.join(sorted(known))})")
 
 
-def _start_folder(out_dir, campaign_path, campaign):
+def _start_folder(out_dir, campaign_path, job):
     """Create the folder (or check that an existing one holds this same campaign)."""
     out_dir = Path(out_dir)
-    spec = {"campaign": campaign.model_dump(), "campaign_file": str(Path(campaign_path).resolve())}
+    spec = {**job, "campaign_file": str(Path(campaign_path).resolve())}
     marker = out_dir / MARKER
     if out_dir.exists():
         if not marker.is_file():
             raise CampaignError(f"--out {out_dir}: exists and is not a campaign folder (no {MARKER}); choose another")
         old = json.loads(marker.read_text())
-        if old["campaign"] != spec["campaign"]:
-            raise CampaignError(f"--out {out_dir}: holds another campaign (a different file or settings); choose another folder")
+        if (old["campaign"], old["scenario_toml"]) != (job["campaign"], job["scenario_toml"]):
+            raise CampaignError(f"--out {out_dir}: holds another campaign (a different file, settings or scenario); "
+                                "choose another folder")
         return
     (out_dir / "batches").mkdir(parents=True)
     tmp = marker.with_name(f".{MARKER}.tmp")
@@ -229,7 +254,8 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     campaign_path = bundled_campaign(campaign_path)
     campaign, ref, _ = load_campaign(campaign_path)
     _check_timeseries(campaign, ref)
-    _start_folder(out_dir, campaign_path, campaign)
+    job = make_job(campaign_path)
+    _start_folder(out_dir, campaign_path, job)
     batches = batch_ids(campaign.runs, campaign.batch_size)
     todo = [b for b in range(len(batches)) if not batch_file(out_dir, b).is_file()]
     t0 = time.perf_counter()
@@ -244,8 +270,8 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
 
             bar = tqdm(total=campaign.runs, initial=campaign.runs - sum(len(batches[b]) for b in todo), unit="run", desc="campaign")
         try:
-            path = str(Path(campaign_path).resolve())
-            futures = {client.submit(run_batch, path, batches[b], key=f"batch-{b}-{time.time_ns()}", pure=False): b for b in todo}
+            shared = client.scatter(job, broadcast=True)
+            futures = {client.submit(run_batch, shared, batches[b], key=f"batch-{b}-{time.time_ns()}", pure=False): b for b in todo}
             for future in as_completed(futures):
                 b = futures[future]
                 rows, series = future.result()
@@ -273,7 +299,8 @@ def _peak_rss_mb():
 
 
 def replay(out_dir, run_id):
-    """Run one stored run again, alone, and compare its metrics with the stored ones.
+    """Run one stored run again, alone, from the job stored in the folder (not the files, which
+    may have changed), and compare its metrics with the stored ones.
 
     Returns
     -------
@@ -289,8 +316,7 @@ def replay(out_dir, run_id):
     if table.num_rows == 0 or run_id not in set(table.column("run_id").to_pylist()):
         raise CampaignError(f"run {run_id}: not among the finished runs of {out_dir}")
     stored = next(r for r in table.to_pylist() if r["run_id"] == run_id)
-    rows = run_batch_rows(spec["campaign_file"], [run_id])
-    replayed = rows[0]
+    replayed = run_batch({k: spec[k] for k in ("campaign", "scenario_toml", "fields")}, [run_id])[0][0]
     keys = [k for k in stored if k not in ("run_id",)]
     identical = all(_same(stored.get(k), replayed.get(k)) for k in keys)
     return stored, replayed, identical

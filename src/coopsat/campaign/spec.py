@@ -206,14 +206,14 @@ def run_seed_sequences(master_seed, runs):
     return np.random.SeedSequence(master_seed).spawn(runs)
 
 
-def draw_run(campaign, fields, base_values, seq):
+def draw_run(campaign, fields, bases, seq):
     """The values applied to one run, and its scenario seed.
 
     Parameters
     ----------
     fields : list of list of str
         Per dispersion, its concrete paths (:func:`load_campaign`).
-    base_values : dict of str -> value
+    bases : dict of str -> value
         Each path's value in the undispersed scenario.
     seq : numpy.random.SeedSequence
         The run's.
@@ -228,7 +228,7 @@ def draw_run(campaign, fields, base_values, seq):
     applied = {}
     for d, paths in zip(campaign.dispersions, fields):
         for path in paths:
-            v = base_values[path]
+            v = bases[path]
             shape = np.shape(v)
             if d.distribution == "choice":
                 new = d.values[int(rng.integers(len(d.values)))]
@@ -242,10 +242,10 @@ def draw_run(campaign, fields, base_values, seq):
     return applied, seed
 
 
-def base_values(ref, overrides, fields):
-    """Each dispersed path's value in the undispersed scenario."""
-    resolved = tomllib.loads(resolved_toml(load_scenario(ref, overrides)))
-    return {p: _get(resolved, p.split(".")) for paths in fields for p in paths}
+def base_values(job):
+    """Each dispersed path's value in the job's undispersed scenario."""
+    resolved = tomllib.loads(job["scenario_toml"])
+    return {p: _get(resolved, p.split(".")) for paths in job["fields"] for p in paths}
 
 
 def overrides_for(applied, seed):

@@ -13,6 +13,7 @@ or lost, even after SIGKILL.
 
 import json
 import os
+import re
 import time
 from pathlib import Path
 
@@ -118,7 +119,8 @@ def run_batch(job, run_ids):
             try:
                 finish([k], [b])
             except NonFiniteStateError as err:
-                rows[k].update(status="failed", reason=str(err))
+                # The engine counts runs within the batch it ran (here a batch of one).
+                rows[k].update(status="failed", reason=re.sub(r"^(state became non-finite: )run \d+, ", r"\1", str(err)))
     kept = None
     if series:
         import xarray as xr
@@ -202,10 +204,9 @@ def _check_timeseries(campaign, ref):
         raise CampaignError(f"timeseries: '{unknown[0]}' is not recorded by this scenario (recorded: {', '.join(sorted(known))})")
 
 
-def _start_folder(out_dir, campaign_path, job):
-    """Create the folder (or check that an existing one holds this same campaign)."""
+def _check_folder(out_dir, job):
+    """Refuse an existing folder that is not a campaign folder, or holds another campaign."""
     out_dir = Path(out_dir)
-    spec = {**job, "campaign_file": str(Path(campaign_path).resolve())}
     marker = out_dir / MARKER
     if out_dir.exists():
         if not marker.is_file():
@@ -214,8 +215,16 @@ def _start_folder(out_dir, campaign_path, job):
         if (old["campaign"], old["scenario_toml"]) != (job["campaign"], job["scenario_toml"]):
             raise CampaignError(f"--out {out_dir}: holds another campaign (a different file, settings or scenario); "
                                 "choose another folder")
+
+
+def _start_folder(out_dir, campaign_path, job):
+    """Create the folder with its marker (nothing to do when it exists: :func:`_check_folder`)."""
+    out_dir = Path(out_dir)
+    marker = out_dir / MARKER
+    if marker.is_file():
         return
-    (out_dir / "batches").mkdir(parents=True)
+    spec = {**job, "campaign_file": str(Path(campaign_path).resolve())}
+    (out_dir / "batches").mkdir(parents=True, exist_ok=True)
     tmp = marker.with_name(f".{MARKER}.tmp")
     tmp.write_text(json.dumps(spec, indent=2) + "\n")
     os.replace(tmp, marker)
@@ -237,7 +246,8 @@ def client_for(workers=None, scheduler=None, connect_timeout_s=5.0):
             return Client(scheduler, timeout=f"{connect_timeout_s}s")
         except (OSError, TimeoutError) as err:
             raise CampaignError(f"--scheduler {scheduler}: cannot reach it within {connect_timeout_s:g} s ({type(err).__name__})") from None
-    cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address=None)
+    # Port 0: a dashboard on any free port (None still binds 8787, and warns when it is taken).
+    cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0")
     return Client(cluster)
 
 
@@ -255,7 +265,7 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     campaign, ref, _ = load_campaign(campaign_path)
     _check_timeseries(campaign, ref)
     job = make_job(campaign_path)
-    _start_folder(out_dir, campaign_path, job)
+    _check_folder(out_dir, job)
     batches = batch_ids(campaign.runs, campaign.batch_size)
     todo = [b for b in range(len(batches)) if not batch_file(out_dir, b).is_file()]
     t0 = time.perf_counter()
@@ -263,7 +273,8 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     if todo:
         from dask.distributed import as_completed
 
-        client = client_for(workers, scheduler)
+        client = client_for(workers, scheduler)  # before the folder: an unreachable scheduler leaves nothing
+        _start_folder(out_dir, campaign_path, job)
         bar = None
         if progress:
             from tqdm.auto import tqdm
@@ -299,8 +310,9 @@ def _peak_rss_mb():
 
 
 def replay(out_dir, run_id):
-    """Run one stored run again, alone, from the job stored in the folder (not the files, which
-    may have changed), and compare its metrics with the stored ones.
+    """Run one stored run again — with the rest of its batch, as it first ran — from the job
+    stored in the folder (not the files, which may have changed), and compare its metrics with
+    the stored ones.
 
     Returns
     -------
@@ -316,7 +328,12 @@ def replay(out_dir, run_id):
     if table.num_rows == 0 or run_id not in set(table.column("run_id").to_pylist()):
         raise CampaignError(f"run {run_id}: not among the finished runs of {out_dir}")
     stored = next(r for r in table.to_pylist() if r["run_id"] == run_id)
-    replayed = run_batch({k: spec[k] for k in ("campaign", "scenario_toml", "fields")}, [run_id])[0][0]
+    # The whole batch the run was stored from, as it ran: XLA's program for a batch of one can
+    # differ from the batch's in the last bit.
+    c = Campaign.model_validate(spec["campaign"])
+    ids = batch_ids(c.runs, c.batch_size)[run_id // c.batch_size]
+    rows = run_batch({k: spec[k] for k in ("campaign", "scenario_toml", "fields")}, ids)[0]
+    replayed = rows[ids.index(run_id)]
     keys = [k for k in stored if k not in ("run_id",)]
     identical = all(_same(stored.get(k), replayed.get(k)) for k in keys)
     return stored, replayed, identical

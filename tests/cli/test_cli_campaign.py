@@ -262,20 +262,7 @@ def test_replay_of_a_run_that_is_not_there(reference, capsys):
     assert f"run {RUNS}" in one_error_line(err)
 
 
-UNSATURATED = """
-extends = "consensus-sync-a"
-description = "law (3), ring (a), 0.01 s period, unsaturated ideal torque"
-
-[sim]
-dt_s = 0.01
-t_final_s = 1.0
-
-[controller]
-period_s = 0.01
-
-[actuators]
-kind = "ideal-torque"
-"""
+UNSATURATED = (Path(__file__).resolve().parents[1] / "data" / "consensus-unsaturated.toml").read_text()
 
 UNSATURATED_CAMPAIGN = """
 scenario = "unsaturated.toml"

@@ -10,6 +10,7 @@ a run stores are checked against the scenario that its ``--set`` strings build.
 import json
 import math
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -222,20 +223,7 @@ def test_the_set_strings_give_the_run_exactly_the_drawn_values(drawn):
 
 # --- Poisoned runs: an invalid body and a blow-up, in one batch with healthy runs --------------
 
-UNSATURATED = """
-extends = "consensus-sync-a"
-description = "law (3), ring (a), 0.01 s period, ideal torque WITHOUT saturation: a huge gain blows up"
-
-[sim]
-dt_s = 0.01
-t_final_s = 1.0
-
-[controller]
-period_s = 0.01
-
-[actuators]
-kind = "ideal-torque"
-"""
+UNSATURATED = (Path(__file__).resolve().parents[2] / "data" / "consensus-unsaturated.toml").read_text()
 
 GOOD_INERTIA, BAD_INERTIA = [1.0, 0.1, 0.9], [1.0, 0.1, 2.0]  # 0.1 + 1.0 < 2.0: no rigid body
 HUGE_BETA = 1e6  # the schema's largest gain: β·dt/I ~ 1e4 per control period, unsaturated

@@ -119,7 +119,7 @@ class ImpulseBitThrusters(_ForceActuator):
     def init(self, n):
         return jnp.zeros((3, n))
 
-    def plan(self, command, x, state, period_s, key):
+    def plan(self, command, x, state, period_s, key, t=0.0):
         bits, remainder = quantise_impulse(command * period_s, state, self.bit_ns, self.max_bits)
         level, t_on = bits_pulse(bits, self.bit_ns, self.thrust_n)
         return Pulse(level, t_on), remainder if self.carry else jnp.zeros_like(remainder)
@@ -167,7 +167,7 @@ class ProportionalThrusters(_ForceActuator):
     def init(self, n):
         return ()
 
-    def plan(self, command, x, state, period_s, key):
+    def plan(self, command, x, state, period_s, key, t=0.0):
         level = deadzone_thrust(command, self.force_min_n, self.force_max_n)
         return Pulse(level, jnp.full_like(level, period_s)), state
 
@@ -201,6 +201,6 @@ class SmoothProportionalThrusters(ProportionalThrusters):
     only (``coopsat tune``; :func:`~coopsat.actuators.smooth.soft_deadzone` 0.25·force_min_n
     wide, :func:`~coopsat.actuators.smooth.soft_clip` over 0.01·force_max_n)."""
 
-    def plan(self, command, x, state, period_s, key):
+    def plan(self, command, x, state, period_s, key, t=0.0):
         level = soft_clip(soft_deadzone(command, self.force_min_n, 0.25 * self.force_min_n), self.force_max_n, 0.01 * self.force_max_n)
         return Pulse(level, jnp.full_like(level, period_s)), state

@@ -49,7 +49,7 @@ class IdealTorque:
     def init(self, n):
         return ()
 
-    def plan(self, command, x, state, period_s, key):
+    def plan(self, command, x, state, period_s, key, t=0.0):
         return ideal_torque_pulse(command, period_s, self.torque_max_nm), state
 
     def record(self, x, state):
@@ -71,6 +71,6 @@ class SmoothIdealTorque(IdealTorque):
     """:class:`IdealTorque` with its saturation rounded over 0.01·torque_max_nm, for gradients
     only (``coopsat tune``; :func:`~coopsat.actuators.smooth.soft_clip`)."""
 
-    def plan(self, command, x, state, period_s, key):
+    def plan(self, command, x, state, period_s, key, t=0.0):
         level = soft_clip(command, self.torque_max_nm, 0.01 * self.torque_max_nm)
         return Pulse(level, jnp.full_like(level, period_s)), state

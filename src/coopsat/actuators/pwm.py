@@ -82,7 +82,7 @@ class PwmThrusters:
     def init(self, n):
         return ()
 
-    def plan(self, command, x, state, period_s, key):
+    def plan(self, command, x, state, period_s, key, t=0.0):
         return pwm_pulse(command, period_s, self.torque_max_nm, self.min_pulse_s), state
 
     def record(self, x, state):

@@ -98,7 +98,7 @@ class ReactionWheels:
         """``I_k Ω_k``: each wheel's momentum relative to the body (what its speed limit bounds)."""
         return state - self.inertia_kgm2 * jnp.einsum("im,in->mn", self.spin_axes_b, x.omega_b)
 
-    def plan(self, command, x, state, period_s, key):
+    def plan(self, command, x, state, period_s, key, t=0.0):
         tau, h_dot_b = wheel_motor_torque(
             command, self._relative_momentum(x, state), self.spin_axes_b, self.spin_axes_pinv,
             self.torque_max_nm, self.h_max_nms,

@@ -37,7 +37,7 @@ class _StateSensor:
     def needs(self):
         return (self.quantity,)
 
-    def truth(self, y, x):
+    def truth(self, y, x, t=0.0):
         return y[self.quantity]
 
 
@@ -206,7 +206,7 @@ class RelativePosition:
     quantity = "rho"
     needs = ("r_eci",)
 
-    def truth(self, y, x):
+    def truth(self, y, x, t=0.0):
         """True vectors (from the plant state, not another sensor's reading) and ``valid = 1``."""
         n = x.r_eci.shape[-1]
         return jnp.concatenate([relative_positions(x.r_eci), jnp.ones((1, n, n))], axis=0)
@@ -268,7 +268,7 @@ class RelativeNavigation:
     quantity = "x_lvlh"
     needs = ("r_eci", "v_eci")
 
-    def truth(self, y, x):
+    def truth(self, y, x, t=0.0):
         """True relative states (from the plant state), (6, n)."""
         r_c, v_c = x.r_eci[:, self.chief][:, None], x.v_eci[:, self.chief][:, None]
         rho, rho_dot = eci_to_lvlh(r_c, v_c, x.r_eci, x.v_eci, axis=0)

@@ -175,13 +175,13 @@ def _truth(system, x):
     return {q: getattr(x, STATE_QUANTITIES[q][0]) for q in _quantities(system)}
 
 
-def _sense(system, x, st, frame, key):
+def _sense(system, x, st, frame, key, t):
     """Measurements of every spacecraft: the truth, with each sensor's quantity replaced by
     what the sensor reads (held between its updates)."""
     y = _truth(system, x)
     states, held = [], []
     for j, (s, s_state, s_held) in enumerate(zip(system.sensors, st["sensors"], st["held"])):
-        value, s_state = s.measure(s.truth(y, x), x, s_state, jax.random.fold_in(key, _KEY_SENSORS + j))
+        value, s_state = s.measure(s.truth(y, x, t), x, s_state, jax.random.fold_in(key, _KEY_SENSORS + j))
         if s.every > 1:
             value = jnp.where(frame % s.every == 0, value, s_held)
         y[s.quantity] = value
@@ -201,7 +201,7 @@ def _command(system, x, st, tick):
     t = tick * system.dt_s
     frame = tick // system.structure.ticks_per_period
     key = jax.random.fold_in(system.key, frame)
-    y, st = _sense(system, x, st, frame, key)
+    y, st = _sense(system, x, st, frame, key, t)
     measured = {f"measured_{s.quantity}": y[s.quantity] for s in system.sensors}
     ctrl = as_flight_software(system.controller, system.structure.n_spacecraft)
     outbox = ctrl.outbox(y, st["controller"])
@@ -214,7 +214,7 @@ def _command(system, x, st, tick):
     for j, (a, a_state) in enumerate(zip(system.actuators, st["actuators"])):
         record = {**record, **a.record(x, a_state)}
         command = cmd[a.command] if a.command in cmd else jnp.zeros_like(x.omega_b)
-        pulse, a_state = a.plan(command, x, a_state, system.period_s, jax.random.fold_in(key, _KEY_ACTUATORS + j))
+        pulse, a_state = a.plan(command, x, a_state, system.period_s, jax.random.fold_in(key, _KEY_ACTUATORS + j), t)
         pulses.append(pulse)
         act_states.append(a_state)
     d_states = tuple(
@@ -321,13 +321,13 @@ def _initial_carry(system):
     truth = _truth(system_cm, x0)
     st = {
         "controller": system.controller.init(n),
-        "sensors": tuple(s.init(s.truth(truth, x0), n) for s in system.sensors),
-        "held": tuple(s.truth(truth, x0) for s in system.sensors),
+        "sensors": tuple(s.init(s.truth(truth, x0, 0.0), n) for s in system.sensors),
+        "held": tuple(s.truth(truth, x0, 0.0) for s in system.sensors),
         "actuators": tuple(a.init(n) for a in system.actuators),
         "disturbances": tuple(d.init(n) for d in system.disturbances),
         "network": (),
     }
-    y0, _ = _sense(system_cm, x0, st, 0, jax.random.fold_in(system.key, 0))
+    y0, _ = _sense(system_cm, x0, st, 0, jax.random.fold_in(system.key, 0), 0.0)
     st["network"] = system.network.init(as_flight_software(system.controller, n).outbox(y0, st["controller"]))
     zeros = jax.eval_shape(
         lambda: _account(system_cm, tuple(a.plan(jnp.zeros_like(x0.omega_b), x0, s, system_cm.period_s, system.key)[0]

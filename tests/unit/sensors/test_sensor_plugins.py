@@ -145,7 +145,7 @@ def _sense_frames(system, frames):
     view = engine._engine_view(system)
     readings = []
     for frame in range(frames):
-        y, st = engine._sense(view, x, st, frame, jax.random.fold_in(system.key, frame))
+        y, st = engine._sense(view, x, st, frame, jax.random.fold_in(system.key, frame), frame * view.period_s)
         readings.append(jax.tree_util.tree_map(np.asarray, y))
     return x, readings
 

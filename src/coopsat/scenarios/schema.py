@@ -184,6 +184,21 @@ class Orbit(Table):
     mu_m3_s2: float = Field(MU_EARTH_M3_S2, gt=0, le=1e21, description="Central body's gravitational parameter, m³/s².")
     j2: float = Field(J2_EARTH, ge=-1.0, le=1.0, description="Central body's J2.")
     r_body_m: float = Field(R_EARTH_M, gt=0, le=1e9, description="Central body's equatorial radius, m.")
+    epoch_utc: str = Field(
+        "2000-01-01T12:00:00",
+        description="UTC date-time of t = 0 (ISO 8601): the Earth's rotation angle, the Sun's direction.",
+    )
+
+    @field_validator("epoch_utc")
+    @classmethod
+    def _iso_date(cls, v):
+        from datetime import datetime
+
+        try:
+            datetime.fromisoformat(v)
+        except ValueError:
+            raise ValueError(f"'{v}' is not an ISO 8601 date-time (e.g. 2018-06-21T04:00:00)") from None
+        return v
 
 
 class Graph(Table):

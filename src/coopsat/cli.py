@@ -24,8 +24,10 @@ def _input_errors():
     from coopsat.tradeoff import TradeoffError
     from coopsat.campaign.spec import CampaignError
     from coopsat.tune import TuneError
+    from coopsat.pair import PairError
 
-    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError)
+    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError,
+            PairError)
 
 
 def _cmd_list(args):
@@ -298,6 +300,28 @@ def _cmd_sweep(args):
     return 0
 
 
+def _cmd_pair(args):
+    from coopsat.pair import check_pair_folder, run_pair, write_pair_folder
+
+    if args.out:
+        check_pair_folder(args.out)  # before the runs, not after
+    result = run_pair(args.a, args.b, n_seeds=args.seeds, overrides=args.set, progress=not args.quiet)
+    a, b = result.names
+    print(f"{a} vs {b}: {len(result.seeds)} seed{'s' if len(result.seeds) > 1 else ''} each "
+          f"(compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
+    shown = [r for r in result.table() if not args.metrics or r["metric"] in args.metrics.split(",")]
+    width = max((len(r["metric"]) for r in shown), default=6)
+    print(f"{'metric':<{width}}  {'A (mean)':>12}  {'B (mean)':>12}  {'B - A':>12}")
+    for r in shown:
+        print(f"{r['metric']:<{width}}  {r['a_mean']:>12.6g}  {r['b_mean']:>12.6g}  {r['diff_mean']:>12.6g}")
+    if args.out:
+        from coopsat.plots.pair import pair_figure
+
+        write_pair_folder(args.out, result, pair_figure(result.names, result.series))
+        print(f"wrote {args.out}/pair.md, pair.nc, pair.png, pair.json")
+    return 0
+
+
 def _cmd_tune(args):
     from pathlib import Path
 
@@ -440,6 +464,21 @@ def build_parser():
     sweep.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help + "; applied to every run")
     sweep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     sweep.set_defaults(func=_cmd_sweep)
+
+    pair = sub.add_parser(
+        "pair", help="run two scenarios on the same seeds and compare them (paired differences)",
+        description="Run scenarios A and B on the same seeds (same sensor noise and disturbance realisations; they must "
+                    "share [[sensors]], [[disturbances]], [[spacecraft]], [orbit] and [sim]) and compare every metric "
+                    "and the paper's paired series (B - A over time).",
+    )
+    pair.add_argument("a", help="scenario A (bundled name or .toml)")
+    pair.add_argument("b", help="scenario B (bundled name or .toml)")
+    pair.add_argument("--seeds", type=int, default=3, metavar="K", help="seeds seed(A) … seed(A)+K-1 (default 3)")
+    pair.add_argument("--metrics", metavar="M1,M2,...", help="metrics to print (default all common ones)")
+    pair.add_argument("--out", metavar="DIR", help="folder for pair.md, pair.nc (series and B - A), pair.png, pair.json")
+    pair.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help + "; applied to both")
+    pair.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    pair.set_defaults(func=_cmd_pair)
 
     tn = sub.add_parser(
         "tune", help="tune scenario fields (gains) by gradient through the closed loop, then re-run it exactly",

@@ -17,7 +17,7 @@ import coopsat
 from coopsat import _interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import run_metrics
-from coopsat.analysis.papers import explainers, paper_metrics, paper_modules
+from coopsat.analysis.papers import explainers, paper_metrics, paper_modules, paper_series
 from coopsat.folders import atomic_folder, check_folder, json_ready
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
 from coopsat.scenarios.load import ScenarioError, load_scenario, resolved_toml
@@ -102,7 +102,7 @@ def simulate_built(built, progress=False):
     }
     for check in built.checks.values():
         attrs[f"check_{check.name}"] = check.note
-    return to_dataset(out, built.names, attrs, output_specs(built.system)), out
+    return paper_series(to_dataset(out, built.names, attrs, output_specs(built.system)), built), out
 
 
 def analyse(built, ds, compare=True):

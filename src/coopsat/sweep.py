@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from coopsat import _interrupt
+from coopsat.analysis.papers import paper_series
 from coopsat.folders import atomic_folder, check_folder, json_ready
 from coopsat.pipeline import analyse, metric_names, prepare
 from coopsat.scenarios.load import clip_echo, load_scenario, parse_value
@@ -201,7 +202,7 @@ def simulate_runs(builds, progress=False):
         for i, k in enumerate(group):
             one = RunOutput(out.t_s, {name: v[i] for name, v in out.samples.items()}, 0.0, 0.0)
             sc = builds[k].scenario
-            datasets[k] = to_dataset(one, builds[k].names, {"scenario_name": sc.name, "seed": sc.seed}, specs)
+            datasets[k] = paper_series(to_dataset(one, builds[k].names, {"scenario_name": sc.name, "seed": sc.seed}, specs), builds[k])
         _interrupt.check()
     return datasets, compile_s, run_s
 

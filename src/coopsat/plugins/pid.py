@@ -90,7 +90,7 @@ def _build_lvlh(table, ctx):
     return Part(*as_arrays((table.k_p, table.k_d, rho_targets(table, ctx.n))))
 
 
-def _double_integrator_radius(gain_p, gain_d, gain_i, period_s):
+def sampled_pd_radius(gain_p, gain_d, gain_i, period_s):
     """Spectral radius of the sampled PID loop of ``ẍ = u``, ``u = −g_p x − g_d ẋ − g_i ∫x``, the
     command held over the period and the integral advanced as :func:`coopsat.control.pid.integrate_error`."""
     t = period_s
@@ -118,7 +118,7 @@ def check_attitude(table, ctx):
     """Linearised about rest at the target: per principal moment J, ``J θ̈ = u`` with
     ``vec(q_t*⊗q) ≈ θ/2``, so the gains on θ are ``K_p/2``, ``K_d``, ``K_i/2``."""
     moments = np.concatenate([np.linalg.eigvalsh(i) for i in ctx.inertia_kgm2])
-    radii = [_double_integrator_radius(table.k_p / (2 * j), table.k_d / j, table.k_i / (2 * j), table.period_s) for j in moments]
+    radii = [sampled_pd_radius(table.k_p / (2 * j), table.k_d / j, table.k_i / (2 * j), table.period_s) for j in moments]
     worst = int(np.argmax(radii))
     return _verdict(
         "attitude-pid", radii[worst], "attitude PID", table.period_s,
@@ -131,7 +131,7 @@ def check_lvlh(table, ctx):
     masses = [sc.mass_kg for sc in ctx.scenario.spacecraft[1:]]
     if not masses or any(m is None for m in masses):
         return None  # one spacecraft, or a missing mass (the build reports it)
-    radii = [_double_integrator_radius(table.k_p / m, table.k_d / m, 0.0, table.period_s) for m in masses]
+    radii = [sampled_pd_radius(table.k_p / m, table.k_d / m, 0.0, table.period_s) for m in masses]
     worst = int(np.argmax(radii))
     return _verdict(
         "lvlh-pd", radii[worst], "LVLH PD", table.period_s,

@@ -283,6 +283,9 @@ class Analysis(Table):
     formation_tolerance_m: float = Field(
         1.0, gt=0, le=MAX_DISTANCE_M, description="Formation error (translation removed) that counts as settled, m."
     )
+    pointing_converged_deg: float = Field(
+        0.05, gt=0, le=180, description="Staring attitude error that counts as converged after the switch, deg (SPEC §5)."
+    )
     settle_hold_s: float = Field(
         10.0, ge=0, le=MAX_TIME_S, description="A settle time counts only if the condition has held this long by the end of the run, s."
     )

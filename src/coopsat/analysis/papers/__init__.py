@@ -6,6 +6,8 @@ modules of the plug-ins it uses. A module provides
 
 * ``metrics(ds, built) -> dict`` — named numbers (unit at the end of each name);
 * ``EXPLAINERS`` — ``{metric name or "_suffix": (quantity, metrics) -> str or None}``;
+* optionally ``series(ds, built) -> {name: DataArray}`` — time series derived from the record
+  (truth errors…), added to the run's dataset before it is written;
 * optionally ``FIGURES`` — the name of a :mod:`coopsat.plots` module whose ``figures(ds,
   built) -> {stem: Figure}`` draws the paper's figures (plots sit above analysis).
 
@@ -36,3 +38,11 @@ def explainers(built):
     for module in paper_modules(built):
         out.update(module.EXPLAINERS)
     return out
+
+
+def paper_series(ds, built):
+    """The run's dataset with every paper module's derived time series added."""
+    for module in paper_modules(built):
+        if hasattr(module, "series"):
+            ds = ds.assign(module.series(ds, built))
+    return ds

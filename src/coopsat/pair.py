@@ -1,0 +1,188 @@
+"""Paired runs: two scenarios on the same seeds, so that what differs between them is their
+design, not their luck (``coopsat pair A B``; SPEC §5).
+
+Every random draw of a run comes from its seed through a fixed sub-stream per part
+(docs/architecture.md §4), so two scenarios with the same sensors and disturbances, run on the
+same seed, see the same noise and disturbance realisations. :func:`run_pair` checks that the two
+share them (otherwise the pairing would be a claim, not a fact), runs each scenario on seeds
+``seed … seed + K − 1`` as one vmapped batch, and compares:
+
+* every scalar metric both runs have, per seed, with the paired difference B − A;
+* the time series a paper module names in ``PAIRED_SERIES`` (e.g. the relative attitude error),
+  as B − A over time per seed, in ``pair.nc``.
+"""
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+from coopsat.analysis.papers import paper_modules
+from coopsat.folders import atomic_folder, check_folder, json_ready
+from coopsat.pipeline import analyse
+from coopsat.scenarios.load import load_scenario
+from coopsat.sweep import run_batch
+
+MARKER = "pair.json"
+"""Written into every pair folder: only a folder holding it is ever replaced."""
+
+SHARED_TABLES = ("sensors", "disturbances", "spacecraft", "orbit", "sim")
+"""What two scenarios must share for their runs on one seed to be paired."""
+
+
+class PairError(ValueError):
+    """Two scenarios that cannot be paired, or a bad pair folder (one line)."""
+
+
+@dataclass
+class PairResult:
+    """Two scenarios' runs on the same seeds.
+
+    Attributes
+    ----------
+    names : (str, str)
+        Scenario names A and B.
+    seeds : list of int
+    metrics : list of (dict, dict)
+        Per seed, A's and B's metrics.
+    series : dict of str -> (DataArray, DataArray)
+        Per paired series, A's and B's values, dims ``(seed, time, spacecraft, …)``.
+    compile_s, run_s : float
+    """
+
+    names: tuple
+    seeds: list
+    metrics: list
+    series: dict
+    compile_s: float
+    run_s: float
+
+    def common_metrics(self):
+        """Scalar metrics that both scenarios report in every seed, sorted."""
+        keys = None
+        for a, b in self.metrics:
+            both = {k for k in a if k in b and _number(a[k]) is not None and _number(b[k]) is not None}
+            keys = both if keys is None else keys & both
+        return sorted(keys or ())
+
+    def table(self):
+        """Per common metric: A and B (mean over seeds) and the paired difference B − A (mean, min, max)."""
+        rows = []
+        for key in self.common_metrics():
+            a = np.array([float(m[key]) for m, _ in self.metrics])
+            b = np.array([float(m[key]) for _, m in self.metrics])
+            d = b - a
+            rows.append({"metric": key, "a": a.tolist(), "b": b.tolist(), "a_mean": a.mean(), "b_mean": b.mean(),
+                         "diff_mean": d.mean(), "diff_min": d.min(), "diff_max": d.max()})
+        return rows
+
+
+def _number(v):
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        return None
+    return float(v) if np.isfinite(v) else None
+
+
+def check_paired(scenario_a, scenario_b):
+    """Raise :class:`PairError` unless the two scenarios share :data:`SHARED_TABLES` exactly."""
+    for table in SHARED_TABLES:
+        a, b = getattr(scenario_a, table), getattr(scenario_b, table)
+        dump = (lambda v: [x.model_dump() for x in v]) if isinstance(a, list) else (lambda v: v and v.model_dump())
+        if dump(a) != dump(b):
+            raise PairError(
+                f"{scenario_a.name} and {scenario_b.name} differ in [{table}]: on one seed they would not see the same "
+                "noise and disturbances; a paired run needs them equal"
+            )
+
+
+def paired_series_names(built):
+    """The series the run's paper modules name in ``PAIRED_SERIES``."""
+    names = []
+    for module in paper_modules(built):
+        names += [n for n in getattr(module, "PAIRED_SERIES", ()) if n not in names]
+    return names
+
+
+def run_pair(ref_a, ref_b, n_seeds=3, overrides=(), progress=False):
+    """Run two scenarios on the same seeds (module docstring).
+
+    Parameters
+    ----------
+    ref_a, ref_b : str or Path
+        Bundled scenario names or TOML paths.
+    n_seeds : int
+        Seeds ``seed(A) … seed(A) + n_seeds − 1``, the same for B.
+    overrides : iterable of str
+        ``key.path=value`` applied to both.
+    progress : bool
+
+    Returns
+    -------
+    PairResult
+    """
+    import xarray as xr
+
+    if n_seeds < 1:
+        raise PairError(f"--seeds {n_seeds}: must be at least 1")
+    scenario_a, scenario_b = load_scenario(ref_a, overrides), load_scenario(ref_b, overrides)
+    check_paired(scenario_a, scenario_b)
+    seeds = [scenario_a.seed + k for k in range(n_seeds)]
+    lists = [[*overrides, f"seed={s}"] for s in seeds]
+    runs_a, ca, ra = run_batch(ref_a, lists, progress)
+    runs_b, cb, rb = run_batch(ref_b, lists, progress)
+    metrics = [(analyse(ba, da, compare=False)[0], analyse(bb, db, compare=False)[0])
+               for (ba, da), (bb, db) in zip(runs_a, runs_b)]
+    names = [n for n in paired_series_names(runs_a[0][0]) if n in runs_a[0][1] and n in runs_b[0][1]]
+    series = {
+        n: tuple(xr.concat([ds[n] for _, ds in runs], dim="seed").assign_coords(seed=seeds) for runs in (runs_a, runs_b))
+        for n in names
+    }
+    return PairResult((scenario_a.name, scenario_b.name), seeds, metrics, series, ca + cb, ra + rb)
+
+
+def _fmt(v):
+    return "—" if v is None else f"{v:.6g}"
+
+
+def markdown(result):
+    """pair.md: the paired comparison table."""
+    a, b = result.names
+    lines = [
+        f"# Paired runs: {b} against {a}",
+        "",
+        f"Seeds {', '.join(str(s) for s in result.seeds)}: each seed gives both scenarios the same sensor noise and "
+        "disturbance realisations, so B − A isolates the difference of design.",
+        "",
+        f"| metric | {a} (mean) | {b} (mean) | B − A mean | B − A min … max |",
+        "|---|---|---|---|---|",
+    ]
+    for row in result.table():
+        lines.append(f"| `{row['metric']}` | {_fmt(row['a_mean'])} | {_fmt(row['b_mean'])} | {_fmt(row['diff_mean'])} | "
+                     f"{_fmt(row['diff_min'])} … {_fmt(row['diff_max'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_pair_folder(out_dir, result, figure=None):
+    """Write pair.json, pair.md, pair.nc (the paired series and B − A) and pair.png, atomically."""
+    import xarray as xr
+
+    with atomic_folder(out_dir, PairError) as tmp:
+        a, b = result.names
+        data = {}
+        for name, (sa, sb) in result.series.items():
+            data[f"{name}_a"] = sa
+            data[f"{name}_b"] = sb
+            data[f"{name}_b_minus_a"] = (sb - sa).assign_attrs(sa.attrs, long_name=f"{sa.attrs.get('long_name', name)}: B − A")
+        xr.Dataset(data, attrs={"scenario_a": a, "scenario_b": b}).to_netcdf(tmp / "pair.nc", engine="h5netcdf")
+        (tmp / "pair.md").write_text(markdown(result), encoding="utf-8")
+        if figure is not None:
+            figure.savefig(tmp / "pair.png", dpi=110)
+        summary = {"scenario_a": a, "scenario_b": b, "seeds": result.seeds, "metrics": result.table(),
+                   "compile_s": result.compile_s, "run_s": result.run_s}
+        (tmp / MARKER).write_text(json.dumps(json_ready(summary), indent=1), encoding="utf-8")
+
+
+def check_pair_folder(out_dir):
+    """Refuse, before anything runs, a target that is not a pair folder."""
+    check_folder(out_dir, MARKER, "pair", PairError)
+

@@ -1,0 +1,190 @@
+"""Cooperative Earth observation (SPEC §5): ``kind = "observation"`` staring flight software.
+
+Each spacecraft holds its sun-pointing attitude until the ground target rises above
+``min_elevation_deg`` as it sees it, then stares at it; ``law = "cooperative"`` makes every
+spacecraft but the reference fly law 23 on the difference of the two attitude errors, fed by
+the reference's measurements over the network; ``law = "independent"`` flies law 8 on every
+spacecraft (:mod:`coopsat.control.observation`).
+"""
+
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from coopsat.plugins import DesignCheck, DesignError, Plugin, register
+from coopsat.plugins.tables import MAX_GAIN, MAX_TORQUE_NM, Table
+
+Latitude = Annotated[float, Field(ge=-90, le=90)]
+
+
+class Observation(Table):
+    """``kind = "observation"``: stare at a ground target, alone (law 8) or matched to a reference (law 23)."""
+
+    kind: Literal["observation"]
+    period_s: float = Field(gt=0, le=1e5, description="Control period (zero-order hold), s.")
+    law: Literal["cooperative", "independent"] = Field(
+        "cooperative", description="cooperative: followers fly law 23 on ΔQ_fr; independent: everyone flies law 8."
+    )
+    reference: str | None = Field(None, description="The reference spacecraft (default the first).")
+    target_lat_deg: Latitude = Field(description="Target's geodetic latitude, deg (WGS-84).")
+    target_lon_deg: float = Field(ge=-360, le=360, description="Target's longitude, deg east.")
+    target_height_m: float = Field(0.0, ge=-1e4, le=1e5, description="Target's height above the ellipsoid, m.")
+    k1: float = Field(gt=0, le=MAX_GAIN, description="Attitude gain k1, N·m per unit of the error quaternion's vector part.")
+    k2: float = Field(gt=0, le=MAX_GAIN, description="Rate gain k2, N·m·s/rad.")
+    torque_max_nm: float = Field(gt=0, le=MAX_TORQUE_NM, description="Each axis of the torque command is clipped to ±this, N·m.")
+    min_elevation_deg: float = Field(
+        10.0, ge=-10, lt=90, description="Staring starts when the target is this high above its horizon, deg."
+    )
+    dump_gain_1_s: float = Field(
+        0.0, ge=0, le=MAX_GAIN,
+        description="Momentum dumping gain, 1/s: dipole k (h × B)/|B|² from the magnetometer (needs magnetorquers).",
+    )
+
+
+def _reference(table, ctx):
+    if table.reference is None:
+        return 0
+    if table.reference not in ctx.names:
+        raise DesignError(f"controller.reference: '{table.reference}' is not a spacecraft ({', '.join(ctx.names)})")
+    return ctx.names.index(table.reference)
+
+
+def _kinds(items):
+    return {t.kind for t in items}
+
+
+def _check_orbits(ctx):
+    """Every spacecraft on an elliptic orbit clear of the Earth (one line otherwise)."""
+    from coopsat.astro.kepler import check_orbit_clear_of_body, rv_to_elements
+
+    orbit = ctx.scenario.orbit
+    for name, r, v in zip(ctx.names, ctx.r_eci_m, ctx.v_eci_m_s):
+        try:
+            el = rv_to_elements(r, v, orbit.mu_m3_s2)
+            check_orbit_clear_of_body(el.a_m, el.e, orbit.r_body_m)
+        except ValueError as err:
+            raise DesignError(f"spacecraft {name}: {err}") from None
+
+
+def _epoch(ctx):
+    from coopsat.astro.earth import gmst_rad, julian_date_utc
+
+    jd = julian_date_utc(ctx.scenario.orbit.epoch_utc)
+    return jd, gmst_rad(jd)
+
+
+def sun_pointing(ctx):
+    """Each spacecraft's sun-pointing attitude at t = 0, (n, 4)."""
+    import numpy as np
+
+    from coopsat.astro.sun import sun_direction_eci
+    from coopsat.design.observation_geometry import sun_pointing_quaternion
+
+    sun = np.asarray(sun_direction_eci(_epoch(ctx)[0]))
+    return np.array([sun_pointing_quaternion(sun, r) for r in ctx.r_eci_m])
+
+
+def _build(table, ctx):
+    import numpy as np
+
+    from coopsat.control.observation import ObservationSoftware
+    from coopsat.design.observation_geometry import target_ecef
+    from coopsat.sim.system import as_arrays
+
+    scenario = ctx.scenario
+    if scenario.orbit is None:
+        raise DesignError("controller: observation needs an [orbit] table (the spacecraft's positions point the camera)")
+    if scenario.sim.attitude != "rigid-body":
+        raise DesignError('controller: observation acts on quaternions; it needs sim.attitude = "rigid-body"')
+    _check_orbits(ctx)
+    actuators = _kinds(scenario.actuator_list)
+    dump = table.dump_gain_1_s > 0.0
+    if dump and "magnetorquers" not in actuators:
+        raise DesignError("controller.dump_gain_1_s: momentum dumping needs a magnetorquers actuator")
+    if dump and "magnetometer" not in _kinds(scenario.sensors):
+        raise DesignError("controller.dump_gain_1_s: momentum dumping reads the field; add a magnetometer sensor")
+    lat, lon = np.radians(table.target_lat_deg), np.radians(table.target_lon_deg)
+    r_target, up = target_ecef(lat, lon, table.target_height_m)
+    return ObservationSoftware(
+        *as_arrays((
+            sun_pointing(ctx).T, r_target, up, _epoch(ctx)[1], scenario.orbit.mu_m3_s2, np.moveaxis(ctx.inertia_kgm2, 0, -1),
+            table.k1, table.k2, table.torque_max_nm, table.dump_gain_1_s, np.radians(table.min_elevation_deg),
+            _reference(table, ctx), table.period_s,
+        )),
+        cooperative=table.law == "cooperative" and ctx.n > 1, wheels="reaction-wheels" in actuators, dump=dump,
+    )
+
+
+def check_visibility(table, ctx):
+    """When the target rises above ``min_elevation_deg`` for each spacecraft (two-body + J2
+    propagation of the initial state); a warning when it does not rise within the run."""
+    import numpy as np
+
+    from coopsat.design.observation_geometry import first_visible_s, target_ecef
+
+    orbit = ctx.scenario.orbit
+    if orbit is None:
+        return None
+    r_target, up = target_ecef(np.radians(table.target_lat_deg), np.radians(table.target_lon_deg), table.target_height_m)
+    t_final = ctx.scenario.sim.t_final_s
+    gmst0 = _epoch(ctx)[1]
+    rises, metrics = [], {}
+    for name, r, v in zip(ctx.names, ctx.r_eci_m, ctx.v_eci_m_s):
+        t = first_visible_s(r, v, r_target, up, gmst0, np.radians(table.min_elevation_deg), max(t_final, 86400.0),
+                            orbit.mu_m3_s2, orbit.j2 if orbit.gravity == "j2" else 0.0, orbit.r_body_m)
+        rises.append((name, t))
+        metrics[f"target_rise_s_{name}"] = float("nan") if t is None else t
+    late = [(name, t) for name, t in rises if t is None or t > t_final]
+    say = "; ".join(f"{name}: {'not within a day' if t is None else f'{t:.0f} s'}" for name, t in rises)
+    if late:
+        return DesignCheck(
+            "target-visibility", False,
+            f"the target is below {table.min_elevation_deg:g}° elevation for the whole run ({t_final:g} s) for "
+            f"{', '.join(name for name, _ in late)}, which keep pointing at the Sun; it rises at {say}",
+            metrics,
+        )
+    return DesignCheck("target-visibility", True, f"the target rises above {table.min_elevation_deg:g}° at {say}", metrics)
+
+
+def check_sun_start(table, ctx):
+    """The spacecraft start in their sun-pointing attitude (the paper's initial mode)."""
+    import numpy as np
+
+    if ctx.scenario.orbit is None:
+        return None
+    q_s = sun_pointing(ctx)
+    q0 = np.array([sc.q_bi for sc in ctx.scenario.spacecraft], dtype=float)
+    q0 /= np.linalg.norm(q0, axis=1, keepdims=True)
+    angle = np.degrees(2.0 * np.arccos(np.clip(np.abs(np.sum(q0 * q_s, axis=1)), 0.0, 1.0)))
+    worst = int(np.argmax(angle))
+    return DesignCheck(
+        "sun-pointing-start", bool(angle[worst] < 1.0),
+        f"initial attitude {angle[worst]:.3g}° from sun-pointing (worst: {ctx.names[worst]}; "
+        f"sun-pointing q_bi = {np.round(q_s[worst], 9).tolist()})",
+        {"initial_sun_pointing_error_deg": float(angle[worst])},
+    )
+
+
+def check_sampled_loop(table, ctx):
+    """Law 8 linearised about its desired motion: per principal moment J a double integrator with
+    ``θ̈ = −(k1/2J) θ − (k2/J) θ̇``, the command held over the period (spectral radius < 1)."""
+    import numpy as np
+
+    from coopsat.plugins.pid import sampled_pd_radius
+
+    moments = np.concatenate([np.linalg.eigvalsh(i) for i in ctx.inertia_kgm2])
+    radii = [sampled_pd_radius(table.k1 / (2 * j), table.k2 / j, 0.0, table.period_s) for j in moments]
+    worst = int(np.argmax(radii))
+    stable = radii[worst] < 1.0
+    return DesignCheck(
+        "observation-sampled-loop", stable,
+        f"staring law sampled at T = {table.period_s:g} s {'stable' if stable else 'UNSTABLE'}: spectral radius "
+        f"{radii[worst]:.6f} (worst on {moments[worst]:.4g} kg·m²)",
+        {"observation_spectral_radius": float(radii[worst])},
+    )
+
+
+register(Plugin(
+    "controller", "observation", Observation, _build, (check_visibility, check_sun_start, check_sampled_loop),
+    analysis="coopsat.analysis.papers.observation_2019",
+))

@@ -47,7 +47,7 @@ class MotorTorqueSchedule:
     def init(self, n):
         return jnp.zeros((), jnp.int64)
 
-    def plan(self, command, x, state, period_s, key):
+    def plan(self, command, x, state, period_s, key, t):
         level = jnp.where(state < self.periods_on, self.level_nm, 0.0)
         return Pulse(level, jnp.full_like(level, period_s)), state + 1
 

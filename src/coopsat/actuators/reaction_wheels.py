@@ -16,7 +16,15 @@ is then the spacecraft's *without* the wheels' spin-axis inertia (Basilisk's ``I
 minus ``Σ I_k g_k g_kᵀ``; checked against Basilisk's reaction wheels,
 tests/reference/test_basilisk_wheels.py). The speed limit applies to ``Ω_k``.
 
-State: per-wheel momentum (m, n), advanced exactly by ``τ·T`` each period. It starts at
+Speed-control error (SPEC §5: 5 rpm, 3σ): each wheel's speed loop leaves an error ``δΩ_k`` on
+top of the speed the commanded torque would give, a first-order Gauss–Markov process with
+stationary standard deviation σ and correlation time τ_c (``δΩ ← φ δΩ + σ √(1 − φ²) ν``,
+``φ = exp(−T/τ_c)`` per control period T, drawn from the run's key). The wheel's momentum then
+changes by ``I_k (δΩ_new − δΩ_old)`` more than commanded over the period: an extra motor torque
+the body feels as a disturbance the attitude law must reject.
+
+State: per-wheel momentum (m, n), advanced exactly by ``τ·T`` each period (with the speed
+error: ``{"h": …, "speed_error": δΩ (m, n)}``). It starts at
 ``G⁺ h_wheels_b_nms`` of each spacecraft (``G⁺`` the Moore–Penrose pseudo-inverse: the
 smallest per-wheel momenta that make up the body-axis momentum; ``G G⁺ = 1`` since ``G`` has
 rank 3, so the part and the plant agree).
@@ -31,6 +39,7 @@ import jax.numpy as jnp
 from coopsat._parts import OutputSpec, part
 from coopsat.actuators.pulses import IMPULSE_OUTPUTS
 from coopsat.actuators.wheels import wheel_motor_torque
+from coopsat.sensors.noise import per_spacecraft_normal
 
 
 class WheelPulse(NamedTuple):
@@ -57,7 +66,7 @@ def wheel_labels(m):
     return tuple(f"w{k + 1}" for k in range(m))
 
 
-@part(static=("command",))
+@part(static=("command", "speed_noise"))
 class ReactionWheels:
     """Reaction-wheel part: m wheels with spin axes ``G`` (3, m), the same on every spacecraft.
 
@@ -75,8 +84,14 @@ class ReactionWheels:
         Momentum limit per wheel, ``I_k ω_max,k``, N·m·s.
     h0_nms : (m, n)
         Initial momentum of each wheel, N·m·s.
+    speed_sigma_rad_s : (m, 1)
+        Stationary standard deviation of the speed-control error, rad/s.
+    speed_phi : scalar
+        ``exp(−T/τ_c)``: the error's correlation over one control period.
     command : str
         Static: the controller command it executes (body torque, N·m).
+    speed_noise : bool
+        Static: model the speed-control error.
     """
 
     spin_axes_b: jnp.ndarray
@@ -85,25 +100,40 @@ class ReactionWheels:
     torque_max_nm: jnp.ndarray
     h_max_nms: jnp.ndarray
     h0_nms: jnp.ndarray
+    speed_sigma_rad_s: jnp.ndarray
+    speed_phi: jnp.ndarray
     command: str = "torque_b"
+    speed_noise: bool = False
 
     channel = "wheel_torque_b"
     pulsed = False
     mean_output = ("torque", "angular_impulse")
 
     def init(self, n):
-        return self.h0_nms
+        return {"h": self.h0_nms, "speed_error": jnp.zeros_like(self.h0_nms)} if self.speed_noise else self.h0_nms
+
+    def _momentum(self, state):
+        return state["h"] if self.speed_noise else state
 
     def _relative_momentum(self, x, state):
         """``I_k Ω_k``: each wheel's momentum relative to the body (what its speed limit bounds)."""
-        return state - self.inertia_kgm2 * jnp.einsum("im,in->mn", self.spin_axes_b, x.omega_b)
+        return self._momentum(state) - self.inertia_kgm2 * jnp.einsum("im,in->mn", self.spin_axes_b, x.omega_b)
 
     def plan(self, command, x, state, period_s, key, t=0.0):
         tau, h_dot_b = wheel_motor_torque(
             command, self._relative_momentum(x, state), self.spin_axes_b, self.spin_axes_pinv,
             self.torque_max_nm, self.h_max_nms,
         )
-        return WheelPulse(h_dot_b, jnp.full_like(h_dot_b, period_s), tau), state + tau * period_s
+        h = self._momentum(state) + tau * period_s
+        if self.speed_noise:
+            err = state["speed_error"]
+            new_err = self.speed_phi * err + self.speed_sigma_rad_s * jnp.sqrt(1.0 - self.speed_phi**2) * (
+                per_spacecraft_normal(key, err.shape[0], err.shape[1]))
+            tau = tau + self.inertia_kgm2 * (new_err - err) / period_s
+            h_dot_b = self.spin_axes_b @ tau
+            h = h + self.inertia_kgm2 * (new_err - err)
+            return WheelPulse(h_dot_b, jnp.full_like(h_dot_b, period_s), tau), {"h": h, "speed_error": new_err}
+        return WheelPulse(h_dot_b, jnp.full_like(h_dot_b, period_s), tau), h
 
     def record(self, x, state):
         """Each wheel's speed relative to the body at the sample, rad/s."""

@@ -33,6 +33,12 @@ class ReactionWheels(Table):
     inertia_kgm2: PerWheel = Field(description="Each wheel's inertia about its spin axis, kg·m².")
     max_speed_rpm: PerWheel = Field(description="Each wheel's speed limit relative to the body, rpm.")
     torque_max_nm: PerWheel = Field(description="Each wheel's motor torque limit, N·m.")
+    speed_error_rpm_3sigma: Annotated[float, Field(ge=0, le=1e5)] = Field(
+        0.0, description="Speed-control error of every wheel, 3σ, rpm (0: none); a Gauss–Markov process."
+    )
+    speed_error_time_s: Annotated[float, Field(gt=0, le=1e6)] = Field(
+        1.0, description="Correlation time of the speed-control error, s."
+    )
     command: str = Field("torque_b", description="Controller command executed (the body torque wanted, N·m).")
 
 
@@ -91,7 +97,10 @@ def _build(table, ctx):
     from coopsat.actuators.reaction_wheels import ReactionWheels as Part
     from coopsat.sim.system import as_arrays
 
-    return Part(*as_arrays(_arrays(table, ctx)), command=table.command)
+    g = _arrays(table, ctx)
+    sigma = np.full((g[0].shape[1], 1), table.speed_error_rpm_3sigma / 3.0 * RPM)
+    phi = math.exp(-ctx.period_s / table.speed_error_time_s)
+    return Part(*as_arrays((*g, sigma, phi)), command=table.command, speed_noise=table.speed_error_rpm_3sigma > 0.0)
 
 
 def check_initial_speed(table, ctx):

@@ -330,7 +330,7 @@ def _initial_carry(system):
     y0, _ = _sense(system_cm, x0, st, 0, jax.random.fold_in(system.key, 0), 0.0)
     st["network"] = system.network.init(as_flight_software(system.controller, n).outbox(y0, st["controller"]))
     zeros = jax.eval_shape(
-        lambda: _account(system_cm, tuple(a.plan(jnp.zeros_like(x0.omega_b), x0, s, system_cm.period_s, system.key)[0]
+        lambda: _account(system_cm, tuple(a.plan(jnp.zeros_like(x0.omega_b), x0, s, system_cm.period_s, system.key, 0.0)[0]
                                           for a, s in zip(system_cm.actuators, st["actuators"])))
     )
     acc = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), zeros)

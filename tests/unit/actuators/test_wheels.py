@@ -1,5 +1,6 @@
 """Reaction wheels: minimum-norm allocation, torque and speed limits (SPEC §5)."""
 
+import jax.numpy as jnp
 import numpy as np
 
 from coopsat.actuators.wheels import THREE_AXIS_PLUS_SKEW_B, wheel_momentum_b, wheel_motor_torque
@@ -82,3 +83,36 @@ def test_wheel_momentum_in_body_axes():
     h = np.array([[0.01, 0.0], [0.0, -0.002], [0.0, 0.0], [np.sqrt(3) * 0.001, 0.0]])  # (4, 2)
     np.testing.assert_allclose(wheel_momentum_b(h, G), [[0.011, 0.0], [0.001, -0.002], [0.001, 0.0]], rtol=1e-14)
     np.testing.assert_allclose(wheel_momentum_b(h[:, 0], G), [0.011, 0.001, 0.001], rtol=1e-14)
+
+
+def test_speed_control_error_is_a_gauss_markov_process_the_body_feels():
+    """With no command, each wheel's momentum wanders as I_k δΩ: stationary σ and lag-one
+    correlation φ = exp(−T/τ_c) of the Gauss–Markov model, and the body gets exactly −G τ."""
+    import jax
+    from types import SimpleNamespace
+
+    from coopsat.actuators.reaction_wheels import ReactionWheels as Part
+    from coopsat.actuators.wheels import THREE_AXIS_PLUS_SKEW_B
+
+    g = THREE_AXIS_PLUS_SKEW_B
+    m, n, period, tau_c = 4, 3, 0.1, 1.0
+    sigma = 5.0 / 3.0 * 2.0 * np.pi / 60.0
+    inertia = 1.1318e-4
+    part = Part(
+        jnp.asarray(g), jnp.asarray(np.linalg.pinv(g)), jnp.full((m, 1), inertia), jnp.full((m, 1), 2e-3),
+        jnp.full((m, 1), 1e3), jnp.zeros((m, n)), jnp.full((m, 1), sigma), jnp.asarray(np.exp(-period / tau_c)),
+        speed_noise=True,
+    )
+    x = SimpleNamespace(omega_b=jnp.zeros((3, n)))
+
+    def step(state, key):
+        pulse, state = part.plan(jnp.zeros((3, n)), x, state, period, key)
+        return state, (state["h"], pulse.level_nm, pulse.tau_nm)
+
+    keys = jax.random.split(jax.random.PRNGKey(3), 20000)
+    _, (h, level, tau) = jax.lax.scan(step, part.init(n), keys)
+    err = np.asarray(h)[2000:] / inertia  # (T, m, n) rad/s, past the start-up from zero
+    assert abs(err.std() / sigma - 1.0) < 0.05
+    lag1 = np.mean(err[1:] * err[:-1]) / np.mean(err**2)
+    assert abs(lag1 - np.exp(-period / tau_c)) < 0.02
+    np.testing.assert_allclose(np.asarray(level), np.einsum("im,tmn->tin", g, np.asarray(tau)), atol=1e-18)

@@ -1,4 +1,5 @@
-"""What every in-loop plug-in part shares: the pytree decorator and the output description.
+"""What every in-loop plug-in part shares: the pytree decorator, the output description and the
+per-spacecraft random draw.
 
 A *part* is the compiled-loop half of a plug-in (a controller, actuator, sensor, network model
 or disturbance): a frozen dataclass whose array fields are pytree data (traced; batched by
@@ -14,6 +15,7 @@ from typing import NamedTuple
 from coopsat import _jax  # noqa: F401
 
 import jax
+import jax.numpy as jnp
 
 
 def part(static=()):
@@ -67,3 +69,25 @@ class OutputSpec(NamedTuple):
     long_name: str
     per_spacecraft: bool = True
     coords: tuple = ()
+
+
+def per_spacecraft_normal(key, k, n):
+    """Standard normal draws, one independent stream per spacecraft.
+
+    Parameters
+    ----------
+    key : jax.Array
+        PRNG key (``jax.random.key`` or ``jax.random.PRNGKey``).
+    k : int
+        Number of components per spacecraft (static).
+    n : int
+        Number of spacecraft (static).
+
+    Returns
+    -------
+    jax.Array, shape (k, n)
+        Column i is ``jax.random.normal(jax.random.fold_in(key, i), (k,))``: the same whatever
+        ``n`` is, and independent of every other column.
+    """
+    draw = jax.vmap(lambda i: jax.random.normal(jax.random.fold_in(key, i), (k,)), out_axes=1)
+    return draw(jnp.arange(n))

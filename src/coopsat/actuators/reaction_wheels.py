@@ -36,10 +36,9 @@ from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat._parts import OutputSpec, part, per_spacecraft_normal
 from coopsat.actuators.pulses import IMPULSE_OUTPUTS
 from coopsat.actuators.wheels import wheel_motor_torque
-from coopsat.sensors.noise import per_spacecraft_normal
 
 
 class WheelPulse(NamedTuple):

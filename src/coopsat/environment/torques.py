@@ -11,10 +11,9 @@ from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat._parts import OutputSpec, part, per_spacecraft_normal
 from coopsat.dynamics.rigid_body import matvec3
 from coopsat.geometry.quaternion import cross, dot, quat_conjugate, quat_rotate
-from coopsat.sensors.noise import per_spacecraft_normal
 
 
 def gravity_gradient_torque_b(q_bi, r_eci_m, inertia_kgm2, mu_m3_s2, axis=-1):

@@ -11,12 +11,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from coopsat._parts import per_spacecraft_normal
 from coopsat.geometry.quaternion import quat_error, quat_vector
 from coopsat.sensors.noise import (
     ARCSEC_RAD,
     gyro_bias_step,
     gyro_measure,
-    per_spacecraft_normal,
     star_tracker_measure,
     white_noise,
 )

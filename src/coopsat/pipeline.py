@@ -78,7 +78,7 @@ def metric_names(built):
     for k, spec in specs.items():
         if spec.dims == ("q_component",):
             samples[k][..., 0] = 1.0  # unit quaternions, so that attitude metrics are defined
-    ds = to_dataset(RunOutput(np.array([0.0, 1.0]), samples, 0.0, 0.0), built.names, {}, specs)
+    ds = paper_series(to_dataset(RunOutput(np.array([0.0, 1.0]), samples, 0.0, 0.0), built.names, {}, specs), built)
     metrics, _ = analyse(built, ds, compare=False)
     return set(metrics)
 

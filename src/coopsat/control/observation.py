@@ -227,6 +227,8 @@ class ObservationSoftware:
         follower's model of the reference's acceleration uses the clipped command too).
     dump_gain_1_s : scalar
         Momentum dumping gain: dipole ``k (h × B)/|B|²`` from the measured field.
+    dipole_max_am2 : scalar
+        Each axis of the dipole command is clipped to ±this (the magnetorquers' limit).
     min_elevation_rad : scalar
         Staring starts when the target is this high above its horizon.
     reference : int scalar
@@ -251,6 +253,7 @@ class ObservationSoftware:
     k2: jnp.ndarray
     torque_max_nm: jnp.ndarray
     dump_gain_1_s: jnp.ndarray
+    dipole_max_am2: jnp.ndarray
     min_elevation_rad: jnp.ndarray
     reference: jnp.ndarray
     period_s: jnp.ndarray
@@ -320,12 +323,17 @@ class ObservationSoftware:
             use = (i != ref) & (count > 0) & staring & ref_staring
             torque = jnp.where(use, jnp.clip(coop, -self.torque_max_nm, self.torque_max_nm), own)
             cooperating = use.astype(float)
-        dipole = self.dump_gain_1_s * dumping_dipole(h, y_i["b_b"]) if self.dump else jnp.zeros(3)
+        wheel_torque, dipole = torque, jnp.zeros(3)
+        if self.dump:
+            dipole = jnp.clip(self.dump_gain_1_s * dumping_dipole(h, y_i["b_b"]), -self.dipole_max_am2, self.dipole_max_am2)
+            # The wheels give the law's torque less the magnetic torque expected from the
+            # measured field, so dumping moves momentum from the wheels without turning the body.
+            wheel_torque = torque - cross(dipole, y_i["b_b"])
         record = {
             "q_desired": q_d, "omega_desired": w_d, "target_elevation": elevation, "staring": staring.astype(float),
             "target_los": los, "torque_command": torque, "dipole_command": dipole, "cooperating": cooperating,
         }
-        return {"torque_b": torque, "dipole_b": dipole}, {"t_next": t + self.period_s}, record
+        return {"torque_b": wheel_torque, "dipole_b": dipole}, {"t_next": t + self.period_s}, record
 
     def output_specs(self):
         return {
@@ -334,7 +342,11 @@ class ObservationSoftware:
             "target_elevation": OutputSpec((), "rad", "", "elevation of the spacecraft above the target's horizon"),
             "staring": OutputSpec((), "1", "", "1 while the software stares at the target, 0 while it points at the Sun"),
             "target_los": OutputSpec(("component",), "1", "ECI", "unit line of sight from the spacecraft to the target"),
-            "torque_command": OutputSpec(("component",), "N m", "body", "body torque commanded (after the software's clip)"),
+            "torque_command": OutputSpec(
+                ("component",), "N m", "body",
+                "body torque the law commands (after the software's clip); the wheels are asked for it less the "
+                "expected magnetorquer torque",
+            ),
             "dipole_command": OutputSpec(("component",), "A m2", "body", "magnetic dipole commanded for momentum dumping"),
             "cooperating": OutputSpec((), "1", "", "1 when this period's command came from the cooperative law (23)"),
         }

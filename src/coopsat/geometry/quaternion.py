@@ -125,6 +125,13 @@ def quat_rotate(q, v, axis=-1):
     return v + s * t + cross(u, t, axis)
 
 
+def quat_rotate_inverse(q, v, axis=-1):
+    """Components in frame b of a vector given in frame a: ``q* ⊗ [0, v] ⊗ q`` for unit
+    ``q = q_ab`` (e.g. an inertial vector in body axes from ``q_bi``); shapes as
+    :func:`quat_rotate`."""
+    return quat_rotate(quat_conjugate(q, axis), v, axis)
+
+
 def quat_to_dcm(q):
     """Direction-cosine matrix ``C_ab`` of a unit ``q_ab``: ``v_a = C_ab @ v_b``.
 

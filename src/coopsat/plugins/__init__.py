@@ -37,6 +37,7 @@ PLUGIN_MODULES = (
     "coopsat.plugins.networks",
     "coopsat.plugins.disturbances",
     "coopsat.plugins.sensors",
+    "coopsat.plugins.earth_environment",
     "coopsat.plugins.observation",
 )
 """Every module that registers plug-ins (one line per module)."""

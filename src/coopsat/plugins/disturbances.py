@@ -1,8 +1,9 @@
 """Disturbance plug-ins (``[[disturbances]]``): environment torques and forces.
 
 Gravity gradient (a point-mass field on an extended body), a seeded random torque, and solar
-radiation pressure on a cannonball (SPEC §4); the aerodynamic and residual-dipole terms of
-SPEC §5 plug in beside them.
+radiation pressure on a cannonball (SPEC §4). The aerodynamic, solar-pressure and
+residual-dipole torques of an Earth orbit (SPEC §5) are in
+:mod:`coopsat.plugins.earth_environment`.
 """
 
 from typing import Annotated, Literal

@@ -12,6 +12,7 @@ from typing import Annotated, Literal
 from pydantic import Field
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
+from coopsat.plugins.earth_environment import epoch, require_earth_orbit
 from coopsat.plugins.tables import MAX_GAIN, MAX_TORQUE_NM, Table
 
 Latitude = Annotated[float, Field(ge=-90, le=90)]
@@ -49,6 +50,11 @@ def _reference(table, ctx):
     return ctx.names.index(table.reference)
 
 
+def _dipole_max(scenario):
+    """The magnetorquers' dipole limit, A·m² (inf without magnetorquers: no dumping then)."""
+    return next((a.dipole_max_am2 for a in scenario.actuator_list if a.kind == "magnetorquers"), float("inf"))
+
+
 def _kinds(items):
     return {t.kind for t in items}
 
@@ -66,13 +72,6 @@ def _check_orbits(ctx):
             raise DesignError(f"spacecraft {name}: {err}") from None
 
 
-def _epoch(ctx):
-    from coopsat.astro.earth import gmst_rad, julian_date_utc
-
-    jd = julian_date_utc(ctx.scenario.orbit.epoch_utc)
-    return jd, gmst_rad(jd)
-
-
 def sun_pointing(ctx):
     """Each spacecraft's sun-pointing attitude at t = 0, (n, 4)."""
     import numpy as np
@@ -80,7 +79,7 @@ def sun_pointing(ctx):
     from coopsat.astro.sun import sun_direction_eci
     from coopsat.design.observation_geometry import sun_pointing_quaternion
 
-    sun = np.asarray(sun_direction_eci(_epoch(ctx)[0]))
+    sun = np.asarray(sun_direction_eci(epoch(ctx)[0]))
     return np.array([sun_pointing_quaternion(sun, r) for r in ctx.r_eci_m])
 
 
@@ -92,10 +91,7 @@ def _build(table, ctx):
     from coopsat.sim.system import as_arrays
 
     scenario = ctx.scenario
-    if scenario.orbit is None:
-        raise DesignError("controller: observation needs an [orbit] table (the spacecraft's positions point the camera)")
-    if scenario.sim.attitude != "rigid-body":
-        raise DesignError('controller: observation acts on quaternions; it needs sim.attitude = "rigid-body"')
+    require_earth_orbit(ctx, "controller: observation")
     _check_orbits(ctx)
     actuators = _kinds(scenario.actuator_list)
     dump = table.dump_gain_1_s > 0.0
@@ -107,8 +103,9 @@ def _build(table, ctx):
     r_target, up = target_ecef(lat, lon, table.target_height_m)
     return ObservationSoftware(
         *as_arrays((
-            sun_pointing(ctx).T, r_target, up, _epoch(ctx)[1], scenario.orbit.mu_m3_s2, np.moveaxis(ctx.inertia_kgm2, 0, -1),
-            table.k1, table.k2, table.torque_max_nm, table.dump_gain_1_s, np.radians(table.min_elevation_deg),
+            sun_pointing(ctx).T, r_target, up, epoch(ctx)[1], scenario.orbit.mu_m3_s2, np.moveaxis(ctx.inertia_kgm2, 0, -1),
+            table.k1, table.k2, table.torque_max_nm, table.dump_gain_1_s, _dipole_max(scenario),
+            np.radians(table.min_elevation_deg),
             _reference(table, ctx), table.period_s,
         )),
         cooperative=table.law == "cooperative" and ctx.n > 1, wheels="reaction-wheels" in actuators, dump=dump,
@@ -127,7 +124,7 @@ def check_visibility(table, ctx):
         return None
     r_target, up = target_ecef(np.radians(table.target_lat_deg), np.radians(table.target_lon_deg), table.target_height_m)
     t_final = ctx.scenario.sim.t_final_s
-    gmst0 = _epoch(ctx)[1]
+    gmst0 = epoch(ctx)[1]
     rises, metrics = [], {}
     for name, r, v in zip(ctx.names, ctx.r_eci_m, ctx.v_eci_m_s):
         t = first_visible_s(r, v, r_target, up, gmst0, np.radians(table.min_elevation_deg), max(t_final, 86400.0),
@@ -184,7 +181,54 @@ def check_sampled_loop(table, ctx):
     )
 
 
+def check_disturbance_budget(table, ctx):
+    """What a random torque drawn every control period does to law 8 and to the wheels.
+
+    Law 8 linearised about its desired motion is ``J θ̈ + k2 θ̇ + (k1/2) θ = τ`` per axis; a
+    torque held over each period T with standard deviation σ has the low-frequency spectrum
+    ``σ² T``, so the attitude jitter is ``σ_θ = σ √(T / (2 (k1/2) k2))`` whatever J. The
+    momentum it leaves in the wheels walks as ``σ √(T t)``: its 3σ reaches the wheels'
+    capacity on the weakest body axis after ``(h_cap / 3σ)² / T``. Fails when the 3σ jitter
+    exceeds ``analysis.pointing_converged_deg`` or the walk fills the wheels within the run.
+    """
+    import numpy as np
+    from scipy.special import erfc
+
+    from coopsat.astro.magnetic import IGRF2020_DIPOLE_T, IGRF_RADIUS_M
+    from coopsat.plugins.wheel_actuators import momentum_capacity_nms
+
+    sigmas = [np.broadcast_to(np.asarray(d.sigma_nm, dtype=float), (3,)) for d in ctx.scenario.disturbances
+              if d.kind == "random-torque"]
+    if not sigmas:
+        return None
+    sigma = float(np.sqrt(np.sum(np.square(sigmas), axis=0)).max())
+    period = ctx.period_s
+    jitter_deg = float(np.degrees(sigma * np.sqrt(period / (2.0 * (table.k1 / 2.0) * table.k2))))
+    saturating = float(erfc(table.torque_max_nm / (sigma * np.sqrt(2.0))))
+    metrics = {"random_torque_jitter_deg": jitter_deg, "random_torque_saturating_fraction": saturating}
+    say = (f"random torque {sigma:.3g} N·m per axis each {period:g} s ({sigma / table.torque_max_nm:.1%} of the "
+           f"{table.torque_max_nm:g} N·m command limit, exceeding it on an axis in {saturating:.2%} of periods): "
+           f"predicted jitter {jitter_deg:.3g}° (1σ, law 8 linearised)")
+    ok = 3.0 * jitter_deg < ctx.scenario.analysis.pointing_converged_deg
+    wheels = next((a for a in ctx.scenario.actuator_list if a.kind == "reaction-wheels"), None)
+    if wheels is not None:
+        h_cap = float(momentum_capacity_nms(wheels).min())
+        fill_s = (h_cap / (3.0 * sigma)) ** 2 / period
+        metrics["random_torque_wheel_fill_s"] = fill_s
+        say += f"; its momentum's 3σ walk fills the weakest axis's {h_cap:.3g} N·m·s in {fill_s:.3g} s"
+        ok = ok and fill_s > ctx.scenario.sim.t_final_s
+    torquers = next((a for a in ctx.scenario.actuator_list if a.kind == "magnetorquers"), None)
+    if torquers is not None:
+        r_max = max(float(np.linalg.norm(r)) for r in ctx.r_eci_m)
+        field_t = float(np.linalg.norm(IGRF2020_DIPOLE_T)) * (IGRF_RADIUS_M / r_max) ** 3
+        say += (f"; magnetorquers give at most {torquers.dipole_max_am2 * field_t:.2g} N·m "
+                f"(field ≥ {field_t * 1e6:.3g} µT), dumping {torquers.dipole_max_am2 * field_t * ctx.scenario.sim.t_final_s:.3g} "
+                "N·m·s over the run at full dipole")
+    return DesignCheck("disturbance-budget", ok, say, metrics)
+
+
 register(Plugin(
-    "controller", "observation", Observation, _build, (check_visibility, check_sun_start, check_sampled_loop),
+    "controller", "observation", Observation, _build,
+    (check_visibility, check_sun_start, check_sampled_loop, check_disturbance_budget),
     analysis="coopsat.analysis.papers.observation_2019",
 ))

@@ -1,5 +1,6 @@
 """Sensors (``[[sensors]]``): star tracker, rate gyro, navigation (position / velocity) noise,
-relative position between spacecraft, and relative navigation in the chief's LVLH frame.
+relative position between spacecraft, relative navigation in the chief's LVLH frame, and the
+sun sensor and magnetometer of an Earth orbit.
 
 Each table replaces one quantity the flight software reads by what a sensor measures; a
 quantity no sensor measures is read perfectly. Every sensor may update more slowly than the
@@ -99,9 +100,26 @@ class RelativeNavigation(Table):
     period_s: float | None = _PERIOD
 
 
+class SunSensor(Table):
+    """``kind = "sun-sensor"``: the direction to the Sun in body axes, none in the Earth's shadow (needs an Earth ``[orbit]``)."""
+
+    kind: Literal["sun-sensor"]
+    sigma_deg: PerAxis = Field(description="Standard deviation of the angular error across the line of sight, deg, per body axis.")
+    period_s: float | None = _PERIOD
+
+
+class Magnetometer(Table):
+    """``kind = "magnetometer"``: the geomagnetic field in body axes (needs an Earth ``[orbit]``)."""
+
+    kind: Literal["magnetometer"]
+    sigma_t: PerAxis = Field(description="Standard deviation of the noise per body axis, T (0.3 nT = 3e-10).")
+    bias_t: Vec3 = Field([0.0, 0.0, 0.0], description="Constant bias, body axes, T (every spacecraft).")
+    period_s: float | None = _PERIOD
+
+
 _QUANTITY = {
     "star-tracker": "q", "gyro": "omega", "position-noise": "r_eci", "velocity-noise": "v_eci", "relative-position": "rho",
-    "relative-navigation": "x_lvlh",
+    "relative-navigation": "x_lvlh", "sun-sensor": "sun_b", "magnetometer": "b_b",
 }
 """The measured quantity each kind replaces."""
 
@@ -127,6 +145,10 @@ def _every(table, ctx):
         raise DesignError(
             f'{where}: kind = "{table.kind}" measures {quantity}, which needs an [orbit] table (this run is attitude only)'
         )
+    if quantity in ("sun_b", "b_b"):
+        from coopsat.plugins.earth_environment import require_earth_orbit
+
+        require_earth_orbit(ctx, f'{where}: kind = "{table.kind}"')
     if table.period_s is None:
         return 1
     every = whole_ratio(table.period_s, ctx.period_s)
@@ -204,9 +226,29 @@ def _build_relative_navigation(table, ctx):
     return Part(*as_arrays((sigma, np.int32(ctx.names.index(table.chief)))), every=every)
 
 
+def _build_sun_sensor(table, ctx):
+    from coopsat.plugins.earth_environment import epoch
+    from coopsat.sensors.environment_sensors import SunSensor as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    return Part(*as_arrays((_per_axis(table.sigma_deg, np.pi / 180.0), epoch(ctx)[0])), every=every)
+
+
+def _build_magnetometer(table, ctx):
+    from coopsat.plugins.earth_environment import epoch
+    from coopsat.sensors.environment_sensors import Magnetometer as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    return Part(*as_arrays((_per_axis(table.sigma_t), _per_axis(table.bias_t), epoch(ctx)[1])), every=every)
+
+
 register(Plugin("sensor", "star-tracker", StarTracker, _build_star_tracker))
 register(Plugin("sensor", "gyro", Gyro, _build_gyro))
 register(Plugin("sensor", "position-noise", PositionNoise, _build_navigation))
 register(Plugin("sensor", "velocity-noise", VelocityNoise, _build_navigation))
 register(Plugin("sensor", "relative-position", RelativePosition, _build_relative))
 register(Plugin("sensor", "relative-navigation", RelativeNavigation, _build_relative_navigation))
+register(Plugin("sensor", "sun-sensor", SunSensor, _build_sun_sensor))
+register(Plugin("sensor", "magnetometer", Magnetometer, _build_magnetometer))

@@ -83,6 +83,18 @@ def per_wheel(value, m, name):
     return v[:, None]
 
 
+def momentum_capacity_nms(table):
+    """Largest momentum the wheel set can store along each body axis, (3,) N·m·s.
+
+    Along a unit axis e the wheels give ``Σ_k h_k g_k·e`` with ``|h_k| ≤ h_max,k``: the
+    constraints are separate boxes, so the largest is ``Σ_k h_max,k |g_k·e|``.
+    """
+    g = spin_axes(table)
+    m = g.shape[1]
+    h_max = per_wheel(table.inertia_kgm2, m, "inertia_kgm2") * per_wheel(table.max_speed_rpm, m, "max_speed_rpm") * RPM
+    return np.abs(g) @ h_max[:, 0]
+
+
 def _arrays(table, ctx):
     g = spin_axes(table)
     m = g.shape[1]

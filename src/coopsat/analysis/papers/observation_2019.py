@@ -16,14 +16,23 @@ noise), or from the true line of sight (``target_los``):
 
 Metrics (the paper's Figs. 5, 8, 9):
 
-* ``stare_start_s_<sc>``: the first sample at which the software stares;
-* ``switch_convergence_s_<sc>``: from then until the attitude error stays below
-  ``analysis.pointing_converged_deg`` to the end of the run (``settle_hold_s`` held);
-* ``steady_attitude_error_max_deg_<sc>`` after convergence, the time it happens
-  (``..._time_s_<sc>``) and the overflight time (largest elevation, ``overflight_s_<sc>``);
-* ``relative_attitude_error_max_deg`` / ``_rms_deg`` and ``image_mismatch_max_deg`` after every
-  spacecraft converged (the follower's against the reference; the worst follower), and
-  ``relative_attitude_error_switch_max_deg`` from the first stare to convergence.
+* ``stare_start_s_<sc>``: the first sample at which the software stares; the *pass* runs from
+  then until it stops staring (the target sets below ``min_elevation_deg``) or the run ends;
+* ``switch_convergence_s_<sc>``: from the stare's start until the attitude error stays below
+  ``analysis.pointing_converged_deg`` to the end of the pass (``settle_hold_s`` held);
+* ``steady_attitude_error_max_deg_<sc>`` in the steady window of the pass (from five time
+  constants of law 8, ``10 J_max / k2``, after convergence, so no tail of the switch counts),
+  the time it happens (``..._time_s_<sc>``) and the overflight time (largest elevation,
+  ``overflight_s_<sc>``);
+* ``relative_attitude_error_max_deg`` / ``_rms_deg`` and ``image_mismatch_max_deg`` in the
+  steady window after every spacecraft converged (the follower's against the reference; the
+  worst follower), and ``relative_attitude_error_switch_max_deg`` from the first stare to
+  convergence, while both stare;
+* what saturates: ``torque_saturated_fraction_<sc>`` (samples whose torque command sits at
+  ``torque_max_nm`` on some axis), ``wheel_speed_max_fraction_<sc>`` (largest wheel speed over
+  its limit) and ``wheel_speed_limit_s_<sc>`` (when a wheel first reaches 99 % of it).
+
+A number the run does not define (no stare, no convergence) is None.
 """
 
 import numpy as np
@@ -50,9 +59,11 @@ def attitude_errors(q, q_desired, omega, omega_desired):
 
 def image_position(q, los_eci):
     """Where the target falls in the camera: ``(b_x/b_z, b_y/b_z)`` of the body-frame line of
-    sight; (…, 4), (…, 3) -> (…, 2)."""
+    sight; (…, 4), (…, 3) -> (…, 2). NaN where the target is not in front of the camera plane
+    (``b_z = 0``: no image point)."""
     b = _np(quat_rotate(quat_conjugate(q), los_eci))
-    return b[..., :2] / b[..., 2:3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(b[..., 2:3] > 0.0, b[..., :2] / b[..., 2:3], np.nan)
 
 
 def pointing_error_rad(q, los_eci):
@@ -95,52 +106,107 @@ def series(ds, built):
     }
 
 
-def _first(t, flags):
+def _pass(flags):
+    """Boolean mask of the first contiguous run of ``flags`` (the first staring pass), or None."""
     idx = np.flatnonzero(flags)
-    return float(t[idx[0]]) if idx.size else None
+    if not idx.size:
+        return None
+    gaps = np.flatnonzero(~flags[idx[0]:])
+    end = idx[0] + (gaps[0] if gaps.size else flags.size - idx[0])
+    mask = np.zeros_like(flags)
+    mask[idx[0]:end] = True
+    return mask
+
+
+def _settle_s(built):
+    """Five time constants of law 8's slowest mode, ``5 · 2 J_max / k2``, s: the steady window
+    starts this long after convergence, so it holds no tail of the switch (the linearised law
+    decays as ``exp(−k2 t / 2J)``)."""
+    moments = np.linalg.eigvalsh(built.context.inertia_kgm2)
+    return 10.0 * float(moments.max()) / built.scenario.controller.k2
+
+
+_PER_SPACECRAFT = (
+    "stare_start_s", "switch_convergence_s", "overflight_s", "steady_attitude_error_max_deg",
+    "steady_attitude_error_max_time_s", "steady_attitude_error_rms_deg", "steady_pointing_error_max_deg",
+    "torque_saturated_fraction", "wheel_speed_max_fraction", "wheel_speed_limit_s",
+)
+_PAIR = (
+    "relative_attitude_error_max_deg", "relative_attitude_error_rms_deg", "image_mismatch_max_deg",
+    "relative_attitude_error_switch_max_deg",
+)
 
 
 def metrics(ds, built):
-    """The paper's numbers of one run (module docstring)."""
+    """The paper's numbers of one run (module docstring); a number the run does not define
+    (no stare, no convergence) is None."""
     a = built.scenario.analysis
     t = ds["time"].values
     staring = ds["staring"].values > 0.5
     angle = ds["attitude_error"].values
     limit = np.radians(a.pointing_converged_deg)
-    m = {}
-    converged_at = []
+    m = {f"{key}_{name}": None for name in built.names for key in _PER_SPACECRAFT}
+    m.update(dict.fromkeys(_PAIR))
+    m.update(_saturation(ds, built))
+    converged_at, passes = [], []
     for k, name in enumerate(built.names):
-        start = _first(t, staring[:, k])
-        m[f"stare_start_s_{name}"] = start
-        if start is None:
-            converged_at.append(None)
+        window = _pass(staring[:, k])
+        passes.append(window)
+        converged_at.append(None)
+        if window is None:
             continue
-        done = settle_time_s(t, staring[:, k] & (angle[:, k] < limit), a.settle_hold_s)
-        converged_at.append(done)
-        m[f"switch_convergence_s_{name}"] = None if done is None else done - start
+        start = float(t[window][0])
+        m[f"stare_start_s_{name}"] = start
         m[f"overflight_s_{name}"] = float(t[np.argmax(ds["target_elevation"].values[:, k])])
-        if done is not None:
-            after = t >= done
+        done = settle_time_s(t[window], angle[window, k] < limit, a.settle_hold_s)
+        if done is None:
+            continue
+        converged_at[k] = done
+        m[f"switch_convergence_s_{name}"] = done - start
+        after = window & (t >= done + _settle_s(built))
+        if after.any():
             worst = np.argmax(np.where(after, angle[:, k], -1.0))
             m[f"steady_attitude_error_max_deg_{name}"] = float(np.degrees(angle[worst, k]))
             m[f"steady_attitude_error_max_time_s_{name}"] = float(t[worst])
             m[f"steady_attitude_error_rms_deg_{name}"] = float(np.degrees(np.sqrt(np.mean(angle[after, k] ** 2))))
             m[f"steady_pointing_error_max_deg_{name}"] = float(np.degrees(ds["pointing_error"].values[after, k].max()))
-    m.update(_pair_metrics(ds, built, converged_at))
+    m.update(_pair_metrics(ds, built, converged_at, passes))
     return m
 
 
-def _pair_metrics(ds, built, converged_at):
+def _saturation(ds, built):
+    """What saturates: the fraction of samples whose torque command sits at the software's clip
+    on some axis, each spacecraft's largest wheel speed as a fraction of its limit, and when a
+    wheel first reaches 99 % of its limit."""
+    controller = built.scenario.controller
+    clipped = np.abs(ds["torque_command"].values) >= controller.torque_max_nm * (1.0 - 1e-9)
+    m = {f"torque_saturated_fraction_{name}": float(clipped[:, k].any(axis=-1).mean()) for k, name in enumerate(built.names)}
+    wheels = next((a for a in built.scenario.actuator_list if a.kind == "reaction-wheels"), None)
+    if wheels is None or "wheel_speed" not in ds:
+        return m
+    limit = np.broadcast_to(np.asarray(wheels.max_speed_rpm, dtype=float) * np.pi / 30.0, ds["wheel_speed"].shape[-1:])
+    fraction = np.abs(ds["wheel_speed"].values) / limit
+    t = ds["time"].values
+    for k, name in enumerate(built.names):
+        m[f"wheel_speed_max_fraction_{name}"] = float(fraction[:, k].max())
+        at_limit = np.flatnonzero(fraction[:, k].max(axis=-1) >= 0.99)
+        m[f"wheel_speed_limit_s_{name}"] = float(t[at_limit[0]]) if at_limit.size else None
+    return m
+
+
+def _pair_metrics(ds, built, converged_at, passes):
     ref = _reference(built)
     followers = [k for k in range(len(built.names)) if k != ref]
     if not followers or any(c is None for c in converged_at):
-        return {}
+        return {}  # the keys stay None
     t = ds["time"].values
     rel = ds["relative_attitude_error"].values[:, followers]
     mismatch = ds["image_mismatch"].values[:, followers]
-    after = t >= max(converged_at)
-    first = min(s for s in (ds["staring"].values > 0.5).argmax(axis=0))
-    switch = (t >= t[first]) & ~after
+    all_stare = np.logical_and.reduce(passes)
+    after = all_stare & (t >= max(converged_at) + _settle_s(built))
+    if not after.any():
+        return {}
+    switch = np.logical_or.reduce(passes) & (t < max(converged_at))
     deg = np.degrees
     return {
         "relative_attitude_error_max_deg": float(deg(np.nanmax(rel[after]))),

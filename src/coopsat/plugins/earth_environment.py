@@ -1,0 +1,165 @@
+"""The Earth-orbit environment (SPEC §5): aerodynamic, solar-pressure and residual-dipole
+torques (``[[disturbances]]``) and magnetorquers (``[[actuators]]``).
+
+The surface that the air and the light push on is a list of flat facets, the same on every
+spacecraft; the Sun, the air and the field depend on ``[orbit] epoch_utc`` and on the Earth
+being the central body.
+"""
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from coopsat.astro.constants import AU_M, MU_EARTH_M3_S2, SOLAR_PRESSURE_1AU_N_M2
+from coopsat.plugins import DesignError, Plugin, register
+from coopsat.plugins.tables import Bounded3, Record, Table
+
+_FACET = Record(float, float, float, float, float, float, float)
+
+Fraction = Annotated[float, Field(ge=0, le=1)]
+
+
+class Facets(Table):
+    """The surface: flat facets given as ``[nx, ny, nz, area_m2, cx, cy, cz]``."""
+
+    facets: list[_FACET] = Field(
+        min_length=1,
+        description="Flat facets, one per row: [nx, ny, nz, area_m2, cx, cy, cz] — outward normal (body axes; "
+        "normalised), area in m², centre of pressure relative to the centre of mass, m, body axes.",
+    )
+
+    @model_validator(mode="after")
+    def _facets_physical(self):
+        import numpy as np
+
+        for k, (nx, ny, nz, area, *centre) in enumerate(self.facets):
+            if not np.isfinite([nx, ny, nz, area, *centre]).all():
+                raise ValueError(f"facets[{k}]: every number must be finite")
+            if np.linalg.norm([nx, ny, nz]) == 0.0:
+                raise ValueError(f"facets[{k}]: the normal [nx, ny, nz] must not be zero")
+            if not 0.0 < area <= 1e4:
+                raise ValueError(f"facets[{k}]: area_m2 must be in (0, 1e4] m², got {area:g}")
+            if np.linalg.norm(centre) > 1e3:
+                raise ValueError(f"facets[{k}]: centre of pressure more than 1 km from the centre of mass")
+        return self
+
+
+class AerodynamicTorqueTable(Facets):
+    """``kind = "aerodynamic-torque"``: free-molecular drag on the facets in an exponential
+    atmosphere that turns with the Earth."""
+
+    kind: Literal["aerodynamic-torque"]
+    cd: float = Field(2.2, gt=0, le=10, description="Drag coefficient of every facet (2.2: flat plate, free molecular flow).")
+
+
+class SolarPressureTorqueTable(Facets):
+    """``kind = "solar-pressure-torque"``: radiation pressure on the facets, none in the Earth's shadow."""
+
+    kind: Literal["solar-pressure-torque"]
+    specular: Fraction | list[Fraction] = Field(0.1, description="Fraction of light reflected specularly: one value, or one per facet.")
+    diffuse: Fraction | list[Fraction] = Field(0.2, description="Fraction reflected diffusely: one value, or one per facet.")
+    pressure_1au_n_m2: float = Field(
+        SOLAR_PRESSURE_1AU_N_M2, gt=0, le=1.0, description="Pressure on an absorber at 1 AU, N/m² (default 4.54e-6)."
+    )
+
+
+class ResidualDipoleTable(Table):
+    """``kind = "residual-dipole"``: a constant magnetic dipole of the spacecraft, ``L = m × B``."""
+
+    kind: Literal["residual-dipole"]
+    dipole_am2: Bounded3(1e4, "A·m²") = Field(description="Residual dipole, body axes, A·m² (every spacecraft).")
+
+
+class MagnetorquersTable(Table):
+    """``kind = "magnetorquers"``: three coils on the body axes, ``L = m × B``."""
+
+    kind: Literal["magnetorquers"]
+    dipole_max_am2: float = Field(gt=0, le=1e4, description="Largest dipole of each coil, A·m².")
+    command: str = Field("dipole_b", description="Controller command executed (the dipole wanted, A·m², body axes).")
+
+
+def require_earth_orbit(ctx, where):
+    """The scenario's ``[orbit]`` has the Earth as central body; else a DesignError naming ``where``."""
+    orbit = ctx.scenario.orbit
+    if orbit is None:
+        raise DesignError(f"{where} needs an [orbit] table (it depends on the position about the Earth)")
+    if abs(orbit.mu_m3_s2 / MU_EARTH_M3_S2 - 1.0) > 0.01:
+        raise DesignError(
+            f"{where} models the Earth's environment; [orbit] mu_m3_s2 = {orbit.mu_m3_s2:.6g} is not the Earth's "
+            f"({MU_EARTH_M3_S2:.6g})"
+        )
+    if ctx.scenario.sim.attitude != "rigid-body":
+        raise DesignError(f'{where} acts on the attitude; it needs sim.attitude = "rigid-body"')
+
+
+def epoch(ctx):
+    """Julian date and Greenwich sidereal angle (rad) of t = 0, from ``[orbit] epoch_utc``."""
+    from coopsat.astro.earth import gmst_rad, julian_date_utc
+
+    jd = julian_date_utc(ctx.scenario.orbit.epoch_utc)
+    return jd, gmst_rad(jd)
+
+
+def _per_facet(value, count, field):
+    import numpy as np
+
+    v = np.asarray(value, dtype=float)
+    if v.ndim == 1 and v.shape[0] != count:
+        raise DesignError(f"disturbances.{field}: {v.shape[0]} values given for {count} facets (give one, or one each)")
+    return np.broadcast_to(v, (count,)).copy()
+
+
+def _facet_arrays(table):
+    """normals (3, F) unit, areas (F,), centres (3, F)."""
+    import numpy as np
+
+    f = np.asarray(table.facets, dtype=float)
+    normals = f[:, :3] / np.linalg.norm(f[:, :3], axis=1, keepdims=True)
+    return normals.T, f[:, 3], f[:, 4:].T
+
+
+def _build_aero(table, ctx):
+    from coopsat.environment.earth_torques import AerodynamicTorque
+    from coopsat.sim.system import as_arrays
+
+    require_earth_orbit(ctx, "disturbances: aerodynamic-torque")
+    return AerodynamicTorque(*as_arrays((*_facet_arrays(table), table.cd)))
+
+
+def _build_srp(table, ctx):
+    from coopsat.environment.earth_torques import SolarPressureTorque
+    from coopsat.sim.system import as_arrays
+
+    require_earth_orbit(ctx, "disturbances: solar-pressure-torque")
+    normals, areas, centres = _facet_arrays(table)
+    specular = _per_facet(table.specular, areas.size, "specular")
+    diffuse = _per_facet(table.diffuse, areas.size, "diffuse")
+    if (specular + diffuse > 1.0).any():
+        k = int((specular + diffuse > 1.0).argmax())
+        raise DesignError(f"disturbances: solar-pressure-torque facet {k} reflects more than all its light (specular + diffuse > 1)")
+    arrays = (normals, areas, centres, specular, diffuse, table.pressure_1au_n_m2, AU_M, epoch(ctx)[0])
+    return SolarPressureTorque(*as_arrays(arrays))
+
+
+def _build_dipole(table, ctx):
+    import numpy as np
+
+    from coopsat.environment.earth_torques import ResidualDipoleTorque
+    from coopsat.sim.system import as_arrays
+
+    require_earth_orbit(ctx, "disturbances: residual-dipole")
+    return ResidualDipoleTorque(*as_arrays((np.asarray(table.dipole_am2, dtype=float).reshape(3, 1), epoch(ctx)[1])))
+
+
+def _build_magnetorquers(table, ctx):
+    from coopsat.actuators.magnetorquers import Magnetorquers
+    from coopsat.sim.system import as_arrays
+
+    require_earth_orbit(ctx, "actuators: magnetorquers")
+    return Magnetorquers(*as_arrays((table.dipole_max_am2, epoch(ctx)[1])), command=table.command)
+
+
+register(Plugin("disturbance", "aerodynamic-torque", AerodynamicTorqueTable, _build_aero))
+register(Plugin("disturbance", "solar-pressure-torque", SolarPressureTorqueTable, _build_srp))
+register(Plugin("disturbance", "residual-dipole", ResidualDipoleTable, _build_dipole))
+register(Plugin("actuator", "magnetorquers", MagnetorquersTable, _build_magnetorquers))

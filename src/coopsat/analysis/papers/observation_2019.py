@@ -85,7 +85,8 @@ def series(ds, built):
     dq, angle, rate = attitude_errors(q, qd, ds["omega"].values, ds["omega_desired"].values)
     image = image_position(q, los)
     ref = _reference(built)
-    both = (ds["staring"].values > 0.5) & (ds["staring"].values[:, [ref]] > 0.5)
+    # Defined for the followers while they and the reference stare (NaN for the reference itself).
+    both = (ds["staring"].values > 0.5) & (ds["staring"].values[:, [ref]] > 0.5) & (np.arange(q.shape[1]) != ref)
     rel = _np(quat_angle(quat_error(dq, dq[:, [ref]])))
     mismatch = np.linalg.norm(image - image[:, [ref]], axis=-1)
     dims = ("time", "spacecraft")

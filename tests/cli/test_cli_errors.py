@@ -346,7 +346,7 @@ GOOD_GAINS = "alpha = 1.0\nbeta = 2.0"
         # a sensor rate that does not divide into control periods
         ('[[sensors]]\nkind = "gyro"\nsigma_rad_s = 1e-4\nperiod_s = 0.015', "sensors[0].period_s (0.015 s) must be a whole multiple"),
         # kinds that no plug-in provides: the message lists the kinds that exist
-        ('[[sensors]]\nkind = "sun-sensor"', "'star-tracker', 'gyro'"),
+        ('[[sensors]]\nkind = "lidar"', "'star-tracker', 'gyro'"),
         ('[actuators]\nkind = "ion-engine"', "'ideal-torque', 'pwm-thrusters'"),
         # an actuator that executes a command the controller never issues
         ('[actuators]\nkind = "proportional-thrusters"', "executes the command 'force_lvlh' but the controller issues torque_b"),

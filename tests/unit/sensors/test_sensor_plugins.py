@@ -172,10 +172,10 @@ def test_period_must_be_a_whole_multiple_of_the_control_period(tmp_path):
 
 def test_unknown_kind_lists_the_installed_kinds(tmp_path):
     with pytest.raises(ScenarioError) as info:
-        _scenario(tmp_path, '[[sensors]]\nkind = "sun-sensor"\n')
+        _scenario(tmp_path, '[[sensors]]\nkind = "lidar"\n')
     msg = str(info.value)
-    assert msg.startswith("sensors[0]") and "sun-sensor" in msg
-    for kind in ("star-tracker", "gyro", "position-noise", "velocity-noise"):
+    assert msg.startswith("sensors[0]") and "lidar" in msg
+    for kind in ("star-tracker", "gyro", "position-noise", "velocity-noise", "sun-sensor", "magnetometer"):
         assert f"'{kind}'" in msg
 
 

@@ -59,7 +59,9 @@ class SunSensor:
     def measure(self, truth_value, x, state, key):
         noisy = white_noise(truth_value[:3], key, self.sigma_rad)
         lit = truth_value[3:]
-        direction = noisy / jnp.linalg.norm(noisy, axis=0) * lit
+        # In shadow the vector is zero (and with σ = 0 so is its norm): divide by 1 there, not 0.
+        norm = jnp.where(lit[0] > 0.0, jnp.linalg.norm(noisy, axis=0), 1.0)
+        direction = noisy / norm * lit
         return jnp.concatenate([direction, lit], axis=0), state
 
     def output_specs(self):

@@ -101,6 +101,8 @@ from typing import Mapping
 import numpy as np
 from scipy.linalg import solve_discrete_lyapunov
 
+from coopsat.design.sampled_data import sampled_pd_radius
+
 #: Noise sources, in the order of the noise vector ``w``.
 SOURCES = ("n_r", "g_r", "d_r", "n_f", "g_f", "d_f")
 #: Feed-forward variants of the cooperative follower (module notes).
@@ -160,22 +162,19 @@ def _check_law(feedforward, delay_periods):
     return int(delay_periods)
 
 
-def _spectral_radius(inertia, k1, k2, period):
-    a_cl = np.array(
-        [
-            [1.0 - period**2 * k1 / (4.0 * inertia), period - period**2 * k2 / (2.0 * inertia)],
-            [-period * k1 / (2.0 * inertia), 1.0 - period * k2 / inertia],
-        ]
-    )
-    return float(np.max(np.abs(np.linalg.eigvals(a_cl))))
-
-
-def _check_stable(radius):
+def _stable_radius(inertia, k1, k2, period):
+    """Spectral radius per axis of law 8 linearised and sampled (:func:`sampled_pd_radius`
+    with the gains ``k1/2I``, ``k2/I`` on the angle); arrays of one shape. Raises ValueError
+    when an axis is unstable."""
+    radius = np.array([
+        sampled_pd_radius(k1[ix] / (2.0 * inertia[ix]), k2[ix] / inertia[ix], 0.0, period) for ix in np.ndindex(inertia.shape)
+    ]).reshape(inertia.shape)
     worst = float(np.max(radius))
     if not worst < 1.0:
         axis = int(np.argmax(np.ravel(radius)))
         where = f" on axis {axis}" if np.ndim(radius) else ""
         raise ValueError(f"k1, k2 and period_s give an unstable sampled loop (spectral radius {worst:.6g} >= 1{where})")
+    return radius
 
 
 def _axis_model(inertia, k1, k2, period, delay, law):
@@ -346,8 +345,7 @@ def relative_error_covariance(
     if np.any(sigmas < 0.0):
         raise ValueError("noise standard deviations must be >= 0")
 
-    radius = np.array([_spectral_radius(inertia[ix], g1[ix], g2[ix], period) for ix in np.ndindex(shape)]).reshape(shape)
-    _check_stable(radius)
+    radius = _stable_radius(inertia, g1, g2, period)
 
     per_law = {"independent": [], "cooperative": []}
     for ix in np.ndindex(shape):
@@ -432,8 +430,7 @@ def relative_error_transfer(inertia_kgm2, k1, k2, period_s, omega_rad_s, delay_p
     shape = inertia.shape
     if np.any(omega < 0.0) or np.any(omega * period >= np.pi):
         raise ValueError("omega_rad_s must satisfy 0 <= omega < pi/period_s")
-    radius = np.array([_spectral_radius(inertia[ix], g1[ix], g2[ix], period) for ix in np.ndindex(shape)]).reshape(shape)
-    _check_stable(radius)
+    _stable_radius(inertia, g1, g2, period)  # raises when unstable
 
     gains = {"independent": [], "cooperative": []}
     w_col = SOURCES.index("d_r")

@@ -215,3 +215,30 @@ def analyze_sampled_data(inertia_kgm2, adjacency, period_s, alpha, beta, k_p=0.0
         dominant=(int(sc), int(axis)),
         stable=rho < 1.0,
     )
+
+
+def sampled_pd_radius(gain_p, gain_d, gain_i, period_s):
+    """Spectral radius of the sampled PID loop of ``ẍ = u``, ``u = −g_p x − g_d ẋ − g_i ∫x``, the
+    command held over the period and the integral advanced as 
+    :func:`coopsat.control.pid.integrate_error`.
+
+    Parameters
+    ----------
+    gain_p, gain_d, gain_i : float
+        Gains per unit mass or inertia (1/s², 1/s, 1/s³).
+    period_s : float
+        Control period T, s.
+
+    Returns
+    -------
+    float
+        Spectral radius of the one-period map (< 1: stable)."""
+    t = period_s
+    # State (x, ẋ, ∫x) at a sample; u = −(g_p, g_d, g_i)·state, held for T.
+    a = np.array([[1.0, t, 0.0], [0.0, 1.0, 0.0], [t, 0.0, 1.0]])
+    b = np.array([t * t / 2.0, t, 0.0])
+    k = np.array([gain_p, gain_d, gain_i])
+    m = a - np.outer(b, k)
+    if gain_i == 0.0:
+        m = m[:2, :2]
+    return float(np.max(np.abs(np.linalg.eigvals(m))))

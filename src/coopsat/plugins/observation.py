@@ -167,7 +167,7 @@ def check_sampled_loop(table, ctx):
     ``θ̈ = −(k1/2J) θ − (k2/J) θ̇``, the command held over the period (spectral radius < 1)."""
     import numpy as np
 
-    from coopsat.plugins.pid import sampled_pd_radius
+    from coopsat.design.sampled_data import sampled_pd_radius
 
     moments = np.concatenate([np.linalg.eigvalsh(i) for i in ctx.inertia_kgm2])
     radii = [sampled_pd_radius(table.k1 / (2 * j), table.k2 / j, 0.0, table.period_s) for j in moments]

@@ -90,20 +90,6 @@ def _build_lvlh(table, ctx):
     return Part(*as_arrays((table.k_p, table.k_d, rho_targets(table, ctx.n))))
 
 
-def sampled_pd_radius(gain_p, gain_d, gain_i, period_s):
-    """Spectral radius of the sampled PID loop of ``ẍ = u``, ``u = −g_p x − g_d ẋ − g_i ∫x``, the
-    command held over the period and the integral advanced as :func:`coopsat.control.pid.integrate_error`."""
-    t = period_s
-    # State (x, ẋ, ∫x) at a sample; u = −(g_p, g_d, g_i)·state, held for T.
-    a = np.array([[1.0, t, 0.0], [0.0, 1.0, 0.0], [t, 0.0, 1.0]])
-    b = np.array([t * t / 2.0, t, 0.0])
-    k = np.array([gain_p, gain_d, gain_i])
-    m = a - np.outer(b, k)
-    if gain_i == 0.0:
-        m = m[:2, :2]
-    return float(np.max(np.abs(np.linalg.eigvals(m))))
-
-
 def _verdict(name, radius, what, period_s, detail):
     stable = radius < 1.0
     return DesignCheck(
@@ -117,6 +103,8 @@ def _verdict(name, radius, what, period_s, detail):
 def check_attitude(table, ctx):
     """Linearised about rest at the target: per principal moment J, ``J θ̈ = u`` with
     ``vec(q_t*⊗q) ≈ θ/2``, so the gains on θ are ``K_p/2``, ``K_d``, ``K_i/2``."""
+    from coopsat.design.sampled_data import sampled_pd_radius
+
     moments = np.concatenate([np.linalg.eigvalsh(i) for i in ctx.inertia_kgm2])
     radii = [sampled_pd_radius(table.k_p / (2 * j), table.k_d / j, table.k_i / (2 * j), table.period_s) for j in moments]
     worst = int(np.argmax(radii))
@@ -131,6 +119,8 @@ def check_lvlh(table, ctx):
     masses = [sc.mass_kg for sc in ctx.scenario.spacecraft[1:]]
     if not masses or any(m is None for m in masses):
         return None  # one spacecraft, or a missing mass (the build reports it)
+    from coopsat.design.sampled_data import sampled_pd_radius
+
     radii = [sampled_pd_radius(table.k_p / m, table.k_d / m, 0.0, table.period_s) for m in masses]
     worst = int(np.argmax(radii))
     return _verdict(

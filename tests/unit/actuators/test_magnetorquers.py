@@ -14,28 +14,13 @@ from scipy.spatial.transform import Rotation
 from coopsat.actuators.magnetorquers import Magnetorquers, magnetorquer_torque_b
 from coopsat.analysis.metrics import inertial_angular_momentum_nms
 from coopsat.astro.earth import OMEGA_EARTH_RAD_S, gmst_rad, julian_date_utc
-from coopsat.astro.magnetic import IGRF2020_DIPOLE_T, IGRF_RADIUS_M
 from coopsat.dynamics.plant import PlantState
 from coopsat.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import bundled_text, load_scenario
+from earth_reference import hand_dipole_eci, to_body
 
 COOP = "observation-cooperative"
 GMST0 = gmst_rad(julian_date_utc("2018-07-12T03:00:00"))
-
-
-def _hand_dipole_eci(r_eci, theta):
-    """Tilted dipole B = a³ (3 (g·r̂) r̂ − g)/r³ in ECEF, ECEF = R3(θ) ECI, written out here."""
-    c, s = np.cos(theta), np.sin(theta)
-    to_ecef = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
-    r = to_ecef @ r_eci
-    g = np.asarray(IGRF2020_DIPOLE_T)
-    rn = np.linalg.norm(r)
-    rh = r / rn
-    return to_ecef.T @ ((IGRF_RADIUS_M / rn) ** 3 * (3.0 * (g @ rh) * rh - g))
-
-
-def _to_body(q, v_i):
-    return Rotation.from_quat(q, scalar_first=True).inv().apply(v_i)
 
 
 def test_torque_is_the_clipped_dipole_cross_the_field_per_axis():
@@ -87,10 +72,10 @@ def test_plan_holds_m_cross_the_body_field_for_the_whole_period_and_counts_its_i
     np.testing.assert_array_equal(np.asarray(part.record(None, state)["magnetorquer_dipole"]), applied)
     theta = GMST0 + OMEGA_EARTH_RAD_S * t
     for i in range(2):
-        b_b = _to_body(q[i], _hand_dipole_eci(r[i], theta))
+        b_b = to_body(q[i], hand_dipole_eci(r[i], theta))
         np.testing.assert_allclose(np.asarray(pulse.level_nm)[:, i], np.cross(applied[:, i], b_b), rtol=1e-10)
         # The field of t = 0 (the Earth 2.5° less turned) would give another torque.
-        b_0 = _to_body(q[i], _hand_dipole_eci(r[i], GMST0))
+        b_0 = to_body(q[i], hand_dipole_eci(r[i], GMST0))
         assert np.linalg.norm(np.asarray(pulse.level_nm)[:, i] - np.cross(applied[:, i], b_0)) > 1e-3 * np.linalg.norm(b_b)
     np.testing.assert_array_equal(np.asarray(pulse.t_off_s), np.full((3, 2), period))  # on for the whole period
     impulse = np.asarray(part.account(pulse)["magnetic_angular_impulse"])
@@ -139,7 +124,7 @@ def test_recorded_counters_are_the_torque_of_the_recorded_dipole_over_each_perio
     assert np.abs(dipole).max() <= 2.5
     for k in range(len(t) - 1):
         for i in range(q.shape[1]):
-            b_b = _to_body(q[k, i], _hand_dipole_eci(r[k, i], GMST0 + OMEGA_EARTH_RAD_S * t[k]))
+            b_b = to_body(q[k, i], hand_dipole_eci(r[k, i], GMST0 + OMEGA_EARTH_RAD_S * t[k]))
             np.testing.assert_allclose(torque[k, i], np.cross(dipole[k + 1, i], b_b), rtol=1e-9, atol=1e-12 * np.linalg.norm(b_b))
 
 

@@ -9,11 +9,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from coopsat.actuators.magnetorquers import magnetorquer_torque_b
 from coopsat.astro.earth import OMEGA_EARTH_RAD_S, WGS84_A_M, WGS84_F, gmst_rad, julian_date_utc
-from coopsat.astro.magnetic import IGRF2020_DIPOLE_T, IGRF_RADIUS_M
 from coopsat.astro.sun import sun_position_eci_m
 from coopsat.dynamics.plant import PlantState
 from coopsat.environment.earth_torques import (
@@ -24,6 +22,7 @@ from coopsat.environment.earth_torques import (
     facet_srp_torque_b,
 )
 from coopsat.scenarios.load import bundled_text
+from earth_reference import hand_dipole_eci, random_quats, to_body
 
 
 def _plate(normal, area, centre):
@@ -110,27 +109,6 @@ def _state(q, r, v):
     return PlantState(jnp.asarray(q.T), zeros, zeros, jnp.asarray(r.T), jnp.asarray(v.T), zeros)
 
 
-def _to_body(q, v_i):
-    """Body components of an inertial vector: v_b = C_biᵀ v_i (SciPy, scalar first)."""
-    return Rotation.from_quat(q, scalar_first=True).inv().apply(v_i)
-
-
-def _hand_dipole_eci(r_eci, theta):
-    """Tilted dipole B = a³ (3 (g·r̂) r̂ − g)/r³ in ECEF, ECEF = R3(θ) ECI, written out here."""
-    c, s = np.cos(theta), np.sin(theta)
-    to_ecef = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
-    r = to_ecef @ r_eci
-    g = np.asarray(IGRF2020_DIPOLE_T)
-    rn = np.linalg.norm(r)
-    rh = r / rn
-    return to_ecef.T @ ((IGRF_RADIUS_M / rn) ** 3 * (3.0 * (g @ rh) * rh - g))
-
-
-def _random_quats(n, seed):
-    q = np.random.default_rng(seed).normal(size=(n, 4))
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
 # Two spacecraft at heights that fall inside bands of Vallado's Table 8-4, so the density is
 # written here from the table: 520 km over the equator, 420 km over the north pole.
 R_EQ = np.array([WGS84_A_M + 520e3, 0.0, 0.0])
@@ -176,19 +154,19 @@ def _hand_srp(s_b, p, normals, areas, centres, specular, diffuse):
 
 def test_aerodynamic_part_uses_the_air_turning_with_the_earth_and_the_tabulated_density():
     part = _aero_part()
-    q = _random_quats(2, 11)
+    q = random_quats(2, 11)
     x = _state(q, [R_EQ, R_POLE], [V_EQ, V_POLE])
     got = np.asarray(part.wrench(0.0, x, part.init(2))["torque_b"])
     assert got.shape == (3, 2)
     normals, areas, centres = _facets(_coop_tables()["aerodynamic-torque"])
     omega_e = np.array([0.0, 0.0, OMEGA_EARTH_RAD_S])
     for i, (r, v) in enumerate([(R_EQ, V_EQ), (R_POLE, V_POLE)]):
-        v_rel_b = _to_body(q[i], v - np.cross(omega_e, r))
+        v_rel_b = to_body(q[i], v - np.cross(omega_e, r))
         expected = _hand_drag(v_rel_b, RHO[i], normals, areas, centres, 2.2)
         np.testing.assert_allclose(got[:, i], expected, rtol=1e-9)
     # Over the equator the co-rotating air matters (ω_E R ≈ 500 m/s across a 7.6 km/s flow):
     # the torque with the inertial velocity instead is measurably different.
-    inertial = _hand_drag(_to_body(q[0], V_EQ), RHO[0], normals, areas, centres, 2.2)
+    inertial = _hand_drag(to_body(q[0], V_EQ), RHO[0], normals, areas, centres, 2.2)
     assert np.linalg.norm(got[:, 0] - inertial) > 1e-2 * np.linalg.norm(inertial)
     # The torque scales with C_D.
     np.testing.assert_allclose(np.asarray(_aero_part(1.1).wrench(0.0, x, ())["torque_b"]), got / 2.0, rtol=1e-12)
@@ -205,7 +183,7 @@ def test_solar_pressure_part_is_zero_in_the_earth_shadow_and_the_hand_value_in_s
     side = np.cross(s_hat, [0.0, 0.0, 1.0])
     side /= np.linalg.norm(side)
     positions = [-radius * s_hat, radius * s_hat, -0.3 * radius * s_hat + radius * side]
-    q = _random_quats(3, 12)
+    q = random_quats(3, 12)
     x = _state(q, positions, [[0.0, 7600.0, 0.0]] * 3)
     got = np.asarray(part.wrench(t, x, part.init(3))["torque_b"])
     np.testing.assert_array_equal(got[:, 0], 0.0)
@@ -213,7 +191,7 @@ def test_solar_pressure_part_is_zero_in_the_earth_shadow_and_the_hand_value_in_s
     for i in (1, 2):
         to_sun = r_sun - positions[i]
         dist = np.linalg.norm(to_sun)
-        s_b = _to_body(q[i], to_sun / dist)
+        s_b = to_body(q[i], to_sun / dist)
         expected = _hand_srp(s_b, P_1AU * (AU / dist) ** 2, normals, areas, centres, 0.1, 0.2)
         assert np.linalg.norm(expected) > 1e-8
         np.testing.assert_allclose(got[:, i], expected, rtol=1e-9)
@@ -222,16 +200,16 @@ def test_solar_pressure_part_is_zero_in_the_earth_shadow_and_the_hand_value_in_s
 def test_residual_dipole_part_is_m_cross_the_body_field_of_the_turning_earth():
     dipole = np.array([0.02, -0.05, 0.03])
     part = ResidualDipoleTorque(jnp.asarray(dipole.reshape(3, 1)), jnp.asarray(GMST0))
-    q = _random_quats(2, 13)
+    q = random_quats(2, 13)
     x = _state(q, [R_EQ, [4.0e6, -3.0e6, 4.5e6]], [V_EQ, V_POLE])
     t = 1234.5
     got = np.asarray(part.wrench(t, x, part.init(2))["torque_b"])
     theta = GMST0 + OMEGA_EARTH_RAD_S * t
     for i, r in enumerate([R_EQ, np.array([4.0e6, -3.0e6, 4.5e6])]):
-        b_b = _to_body(q[i], _hand_dipole_eci(r, theta))
+        b_b = to_body(q[i], hand_dipole_eci(r, theta))
         np.testing.assert_allclose(got[:, i], np.cross(dipole, b_b), rtol=1e-10)
         # The field at t = 0 (the Earth 5° less turned) gives another torque.
-        b_0 = _to_body(q[i], _hand_dipole_eci(r, GMST0))
+        b_0 = to_body(q[i], hand_dipole_eci(r, GMST0))
         assert np.linalg.norm(got[:, i] - np.cross(dipole, b_0)) > 1e-3 * np.linalg.norm(got[:, i])
     assert np.allclose(np.asarray(part.record(t, x, ())["residual_dipole_torque"]), got, rtol=0, atol=0)
 
@@ -279,7 +257,7 @@ JIT_RTOL = {"AerodynamicTorque": 1e-13, "SolarPressureTorque": 1e-10, "ResidualD
 
 
 def test_parts_trace_under_jit_and_each_column_is_its_own_spacecraft():
-    q = _random_quats(2, 14)
+    q = random_quats(2, 14)
     r, v = [R_EQ, R_POLE], [V_EQ, V_POLE]
     x2 = _state(q, r, v)
     t = 250.0

@@ -4,13 +4,12 @@ here (body axes by SciPy), and the noise against its stated statistics over many
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from coopsat.astro.earth import OMEGA_EARTH_RAD_S, WGS84_A_M, gmst_rad, julian_date_utc
-from coopsat.astro.magnetic import IGRF2020_DIPOLE_T, IGRF_RADIUS_M
 from coopsat.astro.sun import sun_position_eci_m
 from coopsat.dynamics.plant import PlantState
 from coopsat.sensors.environment_sensors import Magnetometer, SunSensor
+from earth_reference import hand_dipole_eci, random_quats, to_body
 
 JD0 = julian_date_utc("2018-07-12T03:00:00")
 GMST0 = gmst_rad(JD0)
@@ -21,26 +20,6 @@ def _state(q, r):
     q, r = np.atleast_2d(q), np.atleast_2d(r)
     zeros = jnp.zeros((3, q.shape[0]))
     return PlantState(jnp.asarray(q.T), zeros, zeros, jnp.asarray(r.T), zeros, zeros)
-
-
-def _to_body(q, v_i):
-    return Rotation.from_quat(q, scalar_first=True).inv().apply(v_i)
-
-
-def _random_quats(n, seed):
-    q = np.random.default_rng(seed).normal(size=(n, 4))
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def _hand_dipole_eci(r_eci, theta):
-    """Tilted dipole B = a³ (3 (g·r̂) r̂ − g)/r³ in ECEF, ECEF = R3(θ) ECI, written out here."""
-    c, s = np.cos(theta), np.sin(theta)
-    to_ecef = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
-    r = to_ecef @ r_eci
-    g = np.asarray(IGRF2020_DIPOLE_T)
-    rn = np.linalg.norm(r)
-    rh = r / rn
-    return to_ecef.T @ ((IGRF_RADIUS_M / rn) ** 3 * (3.0 * (g @ rh) * rh - g))
 
 
 def _draws(part, truth_value, keys=4):
@@ -68,24 +47,24 @@ def _sun_positions():
 def test_sun_sensor_truth_is_the_body_direction_to_the_sun_from_the_spacecraft():
     part = SunSensor(jnp.full(3, 1e-3), jnp.asarray(JD0))
     r_sun, r = _sun_positions()
-    q = _random_quats(3, 21)
+    q = random_quats(3, 21)
     truth = np.asarray(part.truth(None, _state(q, r), T_S))
     assert truth.shape == (4, 3)
     np.testing.assert_array_equal(truth[3], [1.0, 1.0, 0.0])
     np.testing.assert_array_equal(truth[:3, 2], 0.0)
     for i in (0, 1):
         to_sun = r_sun - r[i]
-        expected = _to_body(q[i], to_sun / np.linalg.norm(to_sun))
+        expected = to_body(q[i], to_sun / np.linalg.norm(to_sun))
         np.testing.assert_allclose(truth[:3, i], expected, rtol=0, atol=1e-14)
     # The parallax |r|/AU ≈ 4.6e-5 rad is in: beside the Earth the geocentric direction is off by it.
-    geocentric = _to_body(q[1], r_sun / np.linalg.norm(r_sun))
+    geocentric = to_body(q[1], r_sun / np.linalg.norm(r_sun))
     assert np.linalg.norm(truth[:3, 1] - geocentric) > 4e-5
 
 
 def test_sun_sensor_without_noise_reads_the_truth_and_nothing_in_shadow():
     part = SunSensor(jnp.zeros(3), jnp.asarray(JD0))
     _, r = _sun_positions()
-    x = _state(_random_quats(3, 22), r)
+    x = _state(random_quats(3, 22), r)
     truth = part.truth(None, x, T_S)
     measured = np.asarray(part.measure(truth, x, (), jax.random.PRNGKey(0))[0])
     assert np.isfinite(measured).all()  # in shadow too, where the vector is zero
@@ -96,7 +75,7 @@ def test_sun_sensor_without_noise_reads_the_truth_and_nothing_in_shadow():
 def test_sun_sensor_noise_in_shadow_stays_zero_and_invalid():
     part = SunSensor(jnp.full(3, 1e-2), jnp.asarray(JD0))
     _, r = _sun_positions()
-    x = _state(_random_quats(3, 23), r)
+    x = _state(random_quats(3, 23), r)
     measured = np.asarray(part.measure(part.truth(None, x, T_S), x, (), jax.random.PRNGKey(1))[0])
     np.testing.assert_array_equal(measured[:, 2], 0.0)
     np.testing.assert_array_equal(measured[3], [1.0, 1.0, 0.0])
@@ -143,13 +122,13 @@ def test_sun_sensor_isotropic_error_is_two_sigma_squared_in_any_direction():
 
 def test_magnetometer_truth_is_the_body_field_of_the_turning_earth():
     part = Magnetometer(jnp.full(3, 3e-10), jnp.zeros(3), jnp.asarray(GMST0))
-    q = _random_quats(2, 24)
+    q = random_quats(2, 24)
     r = np.array([[RADIUS, 0.0, 0.0], [2.0e6, -4.0e6, 5.3e6]])
     t = 900.0
     truth = np.asarray(part.truth(None, _state(q, r), t))
     assert truth.shape == (3, 2)
     for i in range(2):
-        expected = _to_body(q[i], _hand_dipole_eci(r[i], GMST0 + OMEGA_EARTH_RAD_S * t))
+        expected = to_body(q[i], hand_dipole_eci(r[i], GMST0 + OMEGA_EARTH_RAD_S * t))
         np.testing.assert_allclose(truth[:, i], expected, rtol=1e-12)
         assert 1e-5 < np.linalg.norm(expected) < 6e-5
 
@@ -175,7 +154,7 @@ def test_sensors_trace_under_jit():
     sun = SunSensor(jnp.full(3, 1e-3), jnp.asarray(JD0))
     mag = Magnetometer(jnp.full(3, 3e-10), jnp.zeros(3), jnp.asarray(GMST0))
     _, r = _sun_positions()
-    x = _state(_random_quats(3, 25), r)
+    x = _state(random_quats(3, 25), r)
     key = jax.random.PRNGKey(7)
     for part in (sun, mag):
         truth = part.truth(None, x, T_S)

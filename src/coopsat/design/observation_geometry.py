@@ -8,7 +8,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from coopsat.astro.earth import OMEGA_EARTH_RAD_S, ecef_to_geodetic, geodetic_to_ecef, up_ecef
+from coopsat.astro.earth import ecef_to_geodetic, eci_to_ecef, geodetic_to_ecef, rotation_angle_rad, up_ecef
 
 
 def sun_pointing_quaternion(sun_eci, r_eci_m):
@@ -62,10 +62,8 @@ def propagate(r0_m, v0_m_s, times_s, mu_m3_s2, j2, r_body_m):
 
 def target_elevations(r_eci_m, times_s, target_ecef_m, up_target_ecef, gmst0_rad):
     """Elevation of each spacecraft position above the target's horizon, rad, shape (len(times_s),)."""
-    theta = gmst0_rad + OMEGA_EARTH_RAD_S * np.asarray(times_s)
-    c, s = np.cos(theta), np.sin(theta)
-    # The spacecraft into ECEF (R3(θ)), where the target and its vertical stand still.
-    r_ecef = np.stack([c * r_eci_m[:, 0] + s * r_eci_m[:, 1], -s * r_eci_m[:, 0] + c * r_eci_m[:, 1], r_eci_m[:, 2]], 1)
+    # The spacecraft into ECEF, where the target and its vertical stand still.
+    r_ecef = np.asarray(eci_to_ecef(r_eci_m, rotation_angle_rad(times_s, gmst0_rad)))
     los = r_ecef - target_ecef_m
     return np.arcsin(los @ up_target_ecef / np.linalg.norm(los, axis=1))
 
@@ -87,10 +85,8 @@ def ground_track_point(r0_m, v0_m_s, t_s, gmst0_rad, mu_m3_s2, j2, r_body_m, cro
     r = propagate(r0_m, v0_m_s, np.array([0.0, t_s]), mu_m3_s2, j2, r_body_m)[-1]
     normal = np.cross(r0_m, v0_m_s)
     normal /= np.linalg.norm(normal)
-    theta = gmst0_rad + OMEGA_EARTH_RAD_S * t_s
-    c, s = np.cos(theta), np.sin(theta)
-    r_ecef = np.array([c * r[0] + s * r[1], -s * r[0] + c * r[1], r[2]])
-    n_ecef = np.array([c * normal[0] + s * normal[1], -s * normal[0] + c * normal[1], normal[2]])
+    theta = rotation_angle_rad(t_s, gmst0_rad)
+    r_ecef, n_ecef = (np.asarray(eci_to_ecef(v, theta)) for v in (r, normal))
     lat, lon, _ = ecef_to_geodetic(r_ecef)
     surface = geodetic_to_ecef(lat, lon, 0.0)
     lat, lon, _ = ecef_to_geodetic(np.asarray(surface) + cross_track_m * n_ecef)

@@ -191,8 +191,9 @@ def check_disturbance_budget(table, ctx):
     capacity on the weakest body axis after ``(h_cap / 3σ)² / T``. Fails when the 3σ jitter
     exceeds ``analysis.pointing_converged_deg`` or the walk fills the wheels within the run.
     """
+    import math
+
     import numpy as np
-    from scipy.special import erfc
 
     from coopsat.astro.magnetic import IGRF2020_DIPOLE_T, IGRF_RADIUS_M
     from coopsat.plugins.wheel_actuators import momentum_capacity_nms
@@ -204,7 +205,7 @@ def check_disturbance_budget(table, ctx):
     sigma = float(np.sqrt(np.sum(np.square(sigmas), axis=0)).max())
     period = ctx.period_s
     jitter_deg = float(np.degrees(sigma * np.sqrt(period / (2.0 * (table.k1 / 2.0) * table.k2))))
-    saturating = float(erfc(table.torque_max_nm / (sigma * np.sqrt(2.0))))
+    saturating = math.erfc(table.torque_max_nm / (sigma * math.sqrt(2.0)))
     metrics = {"random_torque_jitter_deg": jitter_deg, "random_torque_saturating_fraction": saturating}
     say = (f"random torque {sigma:.3g} N·m per axis each {period:g} s ({sigma / table.torque_max_nm:.1%} of the "
            f"{table.torque_max_nm:g} N·m command limit, exceeding it on an axis in {saturating:.2%} of periods): "

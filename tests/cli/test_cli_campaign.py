@@ -354,3 +354,35 @@ def test_folder_that_is_not_a_campaign_folder(work, tmp_path, capsys):
     assert status == EXIT_BAD_INPUT
     assert "not a campaign folder" in one_error_line(err)
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+
+
+def test_a_full_disk_stops_with_one_line_keeps_finished_batches_and_resumes(work, reference, tmp_path, capsys, monkeypatch):
+    """The disk fills while the second batch is written (a partial Parquet file, then ENOSPC):
+    exit 2 with one line, the first batch complete, nothing half-written; with room again the
+    same command finishes the campaign, every run once and equal to the reference."""
+    import errno
+
+    import pyarrow.parquet as pq
+
+    real_write, written = pq.write_table, []
+
+    def fills_up(table, where, **kw):
+        written.append(where)
+        if len(written) == 2:
+            Path(where).write_bytes(b"PAR1 half a footer")  # what a full disk leaves behind
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real_write(table, where, **kw)
+
+    out = tmp_path / "full"
+    monkeypatch.setattr(pq, "write_table", fills_up)
+    status, _, err = run_main(capsys, ["campaign", "run", work / "camp.toml", "--out", out, "--workers", "1", "-q"])
+    assert status == EXIT_BAD_INPUT
+    line = one_error_line(err)
+    assert os.strerror(errno.ENOSPC) in line and "the 1 batches on disk are complete" in line, line
+    assert [p.name for p in (out / "batches").iterdir()] == ["batch_000000.parquet"]  # no partial file, no temporary
+    assert read_results(out).num_rows == 2
+
+    monkeypatch.setattr(pq, "write_table", real_write)
+    status, stdout, _ = run_main(capsys, ["campaign", "run", work / "camp.toml", "--out", out, "--workers", "1", "-q"])
+    assert status == 0 and f"{RUNS} runs in {BATCHES} batches (1 already on disk)" in stdout
+    assert_same_rows(out, reference)

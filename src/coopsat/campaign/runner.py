@@ -145,27 +145,44 @@ def series_file(out_dir, b):
 def write_batch(out_dir, b, rows, series=None):
     """Write one batch: its time series (Zarr, when kept) first, then its rows as Parquet,
     each atomically (written beside, renamed into place). The Parquet file is the batch's
-    completion mark: when it exists, so does everything else of the batch."""
+    completion mark: when it exists, so does everything else of the batch.
+
+    Raises
+    ------
+    CampaignError
+        When the disk refuses the batch (full, read-only, quota): the half-written files are
+        removed, so the folder holds only complete batches and resumes once there is room.
+    """
     import shutil
 
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    if series is not None:
-        target = series_file(out_dir, b)
-        target.parent.mkdir(exist_ok=True)
-        tmp_dir = target.with_name(f".{target.name}.{os.getpid()}.tmp")
-        shutil.rmtree(tmp_dir, ignore_errors=True)
-        series.to_zarr(tmp_dir, mode="w", consolidated=False)
-        shutil.rmtree(target, ignore_errors=True)  # a leftover of a killed run of this batch
-        os.replace(tmp_dir, target)
-
     names = list(dict.fromkeys(k for r in rows for k in r))
     table = pa.table({k: [r.get(k) for r in rows] for k in names})
     path = batch_file(out_dir, b)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    pq.write_table(table, tmp)
-    os.replace(tmp, path)
+    tmp_dir = None
+    try:
+        if series is not None:
+            target = series_file(out_dir, b)
+            target.parent.mkdir(exist_ok=True)
+            tmp_dir = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+            shutil.rmtree(tmp_dir, ignore_errors=True)
+            series.to_zarr(tmp_dir, mode="w", consolidated=False)
+            shutil.rmtree(target, ignore_errors=True)  # a leftover of a killed run of this batch
+            os.replace(tmp_dir, target)
+        pq.write_table(table, tmp)
+        os.replace(tmp, path)
+    except OSError as err:
+        tmp.unlink(missing_ok=True)
+        if tmp_dir is not None:
+            shutil.rmtree(tmp_dir, ignore_errors=True)
+        done = sum(1 for _ in Path(out_dir, "batches").glob("batch_*.parquet"))
+        raise CampaignError(
+            f"cannot write batch {b} in {out_dir}: {err.strerror or err}; the {done} batches on disk are complete "
+            "(free space, then run the same command to resume)"
+        ) from err
 
 
 def read_series(out_dir):

@@ -3,7 +3,14 @@
 Three cases per formation size N: a torque-free rigid body (N independent bodies); law (3)
 on an undirected ring with the controller evaluated every tick (the costliest rate) and an
 ideal torque actuator; and the same over a network that delays every message by 2 s (a ring
-buffer of 201 periods of outboxes). One "spacecraft-step" is one spacecraft advanced by one RK4 tick.
+buffer of 201 periods of outboxes). Then batches of runs of N = 5 (a Monte Carlo campaign's
+shape). One "spacecraft-step" is one spacecraft advanced by one RK4 tick.
+
+Each consensus row is also quoted as a fraction of the *ceiling*: the same arithmetic (law (3)
+on the ring, clip, RK4, renormalisation) as one fused, vectorised numba loop over
+component-major rows (``benchmarks/ceiling.py``; needs numba and a source checkout), measured
+in the same sitting on one thread and on two. A batch of B runs of N = 5 is compared with the
+ceiling's ring of B·5 spacecraft (the same work per spacecraft-step: two neighbours each).
 Prints numbers; asserts nothing (timings are not tests).
 """
 
@@ -98,18 +105,46 @@ def measure(n, controller, ticks, batch=None, repeats=3, delayed=False):
     return first.compile_s, best, (batch or 1) * n * n_records * record_ticks / best
 
 
-def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=256):
-    """Print a throughput table for each case and size, then a batched (campaign) line."""
+def load_ceiling():
+    """The ceiling kernel module (``benchmarks/ceiling.py`` of a source checkout), or the
+    reason it cannot be loaded."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "ceiling.py"
+    if not path.is_file():
+        return None, "no benchmarks/ceiling.py beside this installation (run from a source checkout)"
+    spec = importlib.util.spec_from_file_location("coopsat_ceiling", path)
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except ImportError as err:
+        return None, str(err)
+    return module, None
+
+
+def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000):
+    """Print a throughput table for each case and size, then the batched (campaign) lines, with
+    each consensus row's fraction of the ceiling measured alongside."""
     import jax
 
+    ceiling, why = load_ceiling()
     print(f"coopsat engine benchmark: JAX {jax.__version__} on {jax.devices()[0].platform}, float64, RK4")
-    print(f"{'case':<14}{'N':>7}{'batch':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}")
+    if ceiling is None:
+        print(f"(no ceiling column: {why})")
+    print(f"{'case':<14}{'N':>7}{'batch':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}"
+          f"{'ceiling 1T':>12}{'2T':>8}{'of 1T':>7}")
 
     def row(label, n, controller, b, delayed=False):
         total = n * (b or 1)
         ticks = steps or int(np.clip(2e7 / total, 2_000, 1_000_000) // 1000 * 1000)
         compile_s, run_s, rate = measure(n, controller, ticks, batch=b, delayed=delayed)
-        print(f"{label:<14}{n:>7}{b or 1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}", flush=True)
+        line = f"{label:<14}{n:>7}{b or 1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}"
+        if ceiling is not None and controller != "none" and not delayed and total > 1:
+            one = ceiling.ceiling_rate(total, ticks, threads=1)[1]
+            two = ceiling.ceiling_rate(total, ticks, threads=2)[1]
+            line += f"{one / 1e6:>12.2f}{two / 1e6:>8.2f}{rate / one:>7.2f}"
+        print(line, flush=True)
 
     for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
         for n in sizes:

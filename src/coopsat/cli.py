@@ -521,7 +521,7 @@ def build_parser():
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")
     bench.add_argument("--steps", type=int, default=None, help="ticks per timed run (default: scaled to N)")
-    bench.add_argument("--batch", type=int, default=256, help="runs of N = 5 batched with vmap (0: skip)")
+    bench.add_argument("--batch", type=int, default=1000, help="runs of N = 5 in one batch (0: skip)")
     bench.set_defaults(func=_cmd_bench)
     return p
 

@@ -301,7 +301,9 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
             shared = client.scatter(job, broadcast=True)
             futures = {client.submit(run_batch, shared, batches[b], key=f"batch-{b}-{time.time_ns()}", pure=False): b for b in todo}
             for future in as_completed(futures):
-                b = futures[future]
+                # Dropping our reference lets the worker free the batch's result once written:
+                # a campaign larger than memory streams to disk instead of piling up.
+                b = futures.pop(future)
                 rows, series = future.result()
                 write_batch(out_dir, b, rows, series)
                 failed += sum(r["status"] != "ok" for r in rows)

@@ -19,8 +19,9 @@ sub-stream per part. A record is taken every ``periods_per_record`` periods: the
 parts' records at the record instant, each actuator's mean output over the interval that
 starts there, and the cumulative counters. The run is one jitted ``lax.scan`` over records, cut
 into equal power-of-two chunks (to move a progress bar, and so that runs of similar length
-share a compiled program); ``jax.vmap`` over a batched System runs many at once. There is no
-Python loop over ticks, spacecraft or edges.
+share a compiled program). A batch of runs integrates its plant states together in the
+batch-inner layout ``(k, B, n)`` and runs only the parts per run under ``jax.vmap``
+(:func:`_run_chunk_batched`). There is no Python loop over ticks, spacecraft or edges.
 """
 
 import math

@@ -126,6 +126,8 @@ def load_ceiling():
 def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000):
     """Print a throughput table for each case and size, then the batched (campaign) lines, with
     each consensus row's fraction of the ceiling measured alongside."""
+    from coopsat import _jax  # noqa: F401  (XLA's CPU options are read when the backend starts)
+
     import jax
 
     ceiling, why = load_ceiling()

@@ -383,18 +383,51 @@ def _inner_plant(plant):
     )
 
 
-@partial(jax.jit, static_argnames=("chunk",))
-def _run_chunk_batched(system, carry, first_record, n_records, chunk):
-    """``chunk`` record intervals of a batch (batch-first System, shared ``dt_s`` and tick).
+GROUP_SPACECRAFT = 1024
+"""Spacecraft (runs × N) integrated together in one group of a batch: a larger batch is run
+group after group (:func:`_batch_groups`), so that the RK4 stages' working set stays in the
+core's cache. Measured, consensus N = 5: 18.2–18.5 M spacecraft-steps/s for groups of 64–256
+runs, 13.3–13.5 for 512–1000 runs in one group."""
 
-    Takes and returns the carry batch-first, as the vmapped per-run functions
-    (:func:`_initial_carry`, :func:`_final_sample`) do; samples ``(B, chunk, …)``.
-    """
+
+def _batch_groups(n_runs, n_spacecraft):
+    """(groups, runs per group) for a batch: the fewest groups of at most
+    :data:`GROUP_SPACECRAFT` spacecraft, balanced (the last is padded to the same size)."""
+    groups = max(1, math.ceil(n_runs * n_spacecraft / GROUP_SPACECRAFT))
+    return groups, math.ceil(n_runs / groups)
+
+
+def _run_group(system, carry, first_record, n_records, chunk):
+    """``chunk`` record intervals of one group of runs (batch-first in and out)."""
     system = replace(system, plant=_inner_plant(system.plant))
     x, st, acc, tick = carry
     carry = (jax.tree_util.tree_map(_to_inner, x), st, acc, tick)
     (x, st, acc, tick), out = _scan_records(system, carry, first_record, n_records, chunk, True)
     return (jax.tree_util.tree_map(_from_inner, x), st, acc, tick), jax.tree_util.tree_map(lambda a: jnp.moveaxis(a, 1, 0), out)
+
+
+@partial(jax.jit, static_argnames=("chunk", "groups"))
+def _run_chunk_batched(system, carry, first_record, n_records, chunk, groups=1):
+    """``chunk`` record intervals of a batch (batch-first System, shared ``dt_s`` and tick).
+
+    Takes and returns the carry batch-first, as the vmapped per-run functions
+    (:func:`_initial_carry`, :func:`_final_sample`) do; samples ``(B, chunk, …)``. With
+    ``groups`` > 1 (B a multiple of it), the runs are integrated group after group
+    (``lax.map``), each group for the whole chunk.
+    """
+    if groups == 1:
+        return _run_group(system, carry, first_record, n_records, chunk)
+    dt_s, tick = system.dt_s, carry[3]
+    split = lambda a: a.reshape(groups, a.shape[0] // groups, *a.shape[1:])  # noqa: E731
+    merge = lambda a: a.reshape(a.shape[0] * a.shape[1], *a.shape[2:])  # noqa: E731
+    per_group = jax.tree_util.tree_map(split, (replace(system, dt_s=None), carry[:3]))
+
+    def one(group):
+        g_system, g_carry = group
+        return _run_group(replace(g_system, dt_s=dt_s), (*g_carry, tick), first_record, n_records, chunk)
+
+    (x, st, acc, ticks), out = jax.lax.map(one, per_group)
+    return jax.tree_util.tree_map(merge, (x, st, acc)) + (ticks[0],), jax.tree_util.tree_map(merge, out)
 
 
 @jax.jit
@@ -571,16 +604,23 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         # handles between calls) ends the run promptly.
         chunk = min(2 ** math.ceil(math.log2(max(1, n_records / 50))), MAX_CHUNK)
     n_chunks = math.ceil(n_records / chunk)
-    run_chunk = _run_chunk
     final = _final_sample
     init = _initial_carry
+    n_runs, groups = None, 1
     if batched:
         system, sys_axes = _shared_time_base(system)
         # The tick stays unbatched too, so time (and every schedule indexed by it) is the same
         # traced value for all runs: a branch on time (a planner due every so often) stays a
         # branch under vmap instead of becoming a select that evaluates both sides every period.
         carry_axes = (0, 0, 0, None)
-        run_chunk = _run_chunk_batched
+        n_runs = int(np.shape(system.key)[0])
+        groups, per_group = _batch_groups(n_runs, system.structure.n_spacecraft)
+        # Pad to whole groups with copies of the last run (their results are dropped).
+        pad = groups * per_group - n_runs
+        if pad:
+            system = jax.tree_util.tree_map(
+                lambda a, ax: a if ax is None else jnp.concatenate([a, jnp.repeat(a[-1:], pad, axis=0)]), system, sys_axes
+            )
         final = jax.vmap(_final_sample, in_axes=(sys_axes, carry_axes))
         init = jax.vmap(_initial_carry, in_axes=(sys_axes,), out_axes=carry_axes)
     carry = init(system)
@@ -594,7 +634,9 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
            for v in jax.tree_util.tree_leaves(system)), chunk, batched)
     compiled = _COMPILED.pop(key, None)
     if compiled is None:
-        compiled = run_chunk.lower(system, carry, 0, n_records, chunk).compile()
+        lowered = (_run_chunk_batched.lower(system, carry, 0, n_records, chunk, groups) if batched
+                   else _run_chunk.lower(system, carry, 0, n_records, chunk))
+        compiled = lowered.compile()
     _COMPILED[key] = compiled  # most recently used last
     while len(_COMPILED) > _COMPILED_MAX:
         _COMPILED.pop(next(iter(_COMPILED)))
@@ -636,6 +678,8 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     }
     specs = output_specs(system)
     samples = {k: np.moveaxis(v, -1, axis + 1) if specs[k].per_spacecraft else v for k, v in samples.items()}
+    if batched:
+        samples = {k: v[:n_runs] for k, v in samples.items()}  # without the padding runs
     return RunOutput(t_s=t_s, samples=samples, compile_s=compile_s, run_s=run_s)
 
 

@@ -109,3 +109,20 @@ def test_batch_inner_integration_equals_separate_runs(name):
             np.testing.assert_allclose(got, want, rtol=0, atol=tol, err_msg=f"{name}: {key}")
     # The runs differ from one another (else the test would prove little).
     assert any(not np.array_equal(out.samples[k][0], out.samples[k][1]) for k in out.samples)
+
+
+def test_a_batch_run_group_after_group_with_padding_equals_separate_runs(monkeypatch):
+    """Five runs in groups of two (the last padded with a copy) give each run's own result."""
+    from coopsat.sim import engine
+
+    runs = [_built("consensus-sync-b-stable", "sim.t_final_s=1.0", f"spacecraft.0.omega_b_rad_s=[0.0, 0.0, {w}]")
+            for w in (0.01, 0.02, 0.03, 0.04, 0.05)]
+    n = runs[0].system.structure.n_spacecraft
+    monkeypatch.setattr(engine, "GROUP_SPACECRAFT", 2 * n)
+    assert engine._batch_groups(5, n) == (3, 2)
+    out = simulate(stack_systems([b.system for b in runs]), runs[0].n_records, runs[0].record_interval_s, batched=True)
+    for k, b in enumerate(runs):
+        single = simulate(b.system, b.n_records, b.record_interval_s)
+        for key, want in single.samples.items():
+            assert out.samples[key].shape[0] == 5
+            np.testing.assert_allclose(out.samples[key][k], want, rtol=0, atol=1e-12 * max(np.max(np.abs(want)), 1e-3))

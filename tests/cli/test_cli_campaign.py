@@ -413,3 +413,24 @@ def test_finished_batches_are_released_on_the_worker_as_they_are_written(work, t
     status, _, err = run_main(capsys, ["campaign", "run", work / "camp.toml", "--out", tmp_path / "c", "--workers", "1", "-q"])
     assert status == 0, err
     assert len(held) == BATCHES and all(n <= BATCHES - k for k, n in enumerate(held)), held
+
+
+def test_local_workers_run_on_one_cpu_device():
+    """Each local worker is one process on one CPU device (its batches are not split between
+    cores, so a stored result does not depend on the machine's core count)."""
+    from coopsat.campaign.runner import client_for
+
+    def devices():
+        from coopsat import _jax  # noqa: F401
+
+        import jax
+
+        return len(jax.devices())
+
+    client = client_for(workers=1)
+    try:
+        assert list(client.run(devices).values()) == [1]
+    finally:
+        cluster = client.cluster
+        client.close()
+        cluster.close()

@@ -6,6 +6,7 @@ XLA compilation. The cache lives in ``$COOPSAT_JAX_CACHE`` or ``~/.cache/coopsat
 """
 
 import os
+import re
 from importlib.metadata import version
 from pathlib import Path
 
@@ -32,6 +33,10 @@ def _xla_cpu_flags():
     §"Engine speed"). Older jaxlibs do not know the flag (and abort on unknown flags).
     """
     flags = os.environ.get("XLA_FLAGS", "")
+    if os.environ.get("COOPSAT_CPU_DEVICES"):
+        # Explicit, so it wins over a count inherited from a parent process's XLA_FLAGS (a
+        # campaign's workers inherit the driver's).
+        flags = re.sub(r"\s*--xla_force_host_platform_device_count=\S*", "", flags)
     if "xla_force_host_platform_device_count" not in flags:
         flags = f"{flags} --xla_force_host_platform_device_count={_cpu_devices()}".strip()
     try:

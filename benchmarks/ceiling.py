@@ -52,7 +52,7 @@ The engine's arithmetic is followed operation for operation (the products and su
 its LLVM IR under ``XLA_FLAGS=--xla_dump_to``), and its backend may contract products and sums
 into FMAs; neither is reproduced here (ulp-level differences per tick).
 
-Needs numba (``pip install numba``, or ``pip install -e .[bench]``). Run as a script for a
+Needs numba (a dependency of coopsat since its native kernels). Run as a script for a
 table of rates: ``python benchmarks/ceiling.py``.
 """
 
@@ -68,7 +68,7 @@ try:
     from numba import njit, prange
 except ImportError as err:  # pragma: no cover - depends on the environment
     raise ImportError(
-        "benchmarks/ceiling.py needs numba: pip install numba (or pip install -e '.[bench]')"
+        "benchmarks/ceiling.py needs numba: pip install numba"
     ) from err
 
 

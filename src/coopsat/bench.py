@@ -40,10 +40,11 @@ def _network(links, delayed):
     )
 
 
-def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=False):
+def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=False, native=True):
     """A random formation of ``n`` spacecraft for the benchmark (no orbit): free, or law (3)
     on an undirected ring with an ideal torque actuator, over an ideal network or one that
-    delays every message by 2 s."""
+    delays every message by 2 s. ``native``: whether the plant may use a native CPU kernel
+    (:mod:`coopsat.sim.native`)."""
     import jax
 
     from coopsat.actuators.ideal import IdealTorque
@@ -61,7 +62,7 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=Fa
     links = links_from_adjacency(ring_adjacency(n) if controller != "none" and n > 1 else np.zeros((n, n)))
     structure = Structure(
         n_spacecraft=n, gravity="none", attitude="rigid-body", ticks_per_period=1, periods_per_record=record_ticks,
-        substeps=1,
+        substeps=1, native=native,
     )
     if controller == "none":
         law = NoControl()
@@ -82,7 +83,7 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=Fa
     )
 
 
-def measure(n, controller, ticks, batch=None, repeats=3, delayed=False):
+def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=True):
     """(compile s, best run s, spacecraft-steps/s) for ``ticks`` ticks of ``n`` spacecraft.
 
     With ``batch``, that many independent runs (different random formations) go through one
@@ -94,11 +95,12 @@ def measure(n, controller, ticks, batch=None, repeats=3, delayed=False):
     record_ticks = min(1000, ticks)
     n_records = ticks // record_ticks
     if batch is None:
-        system = bench_system(n, controller, record_ticks=record_ticks, delayed=delayed)
+        system = bench_system(n, controller, record_ticks=record_ticks, delayed=delayed, native=native)
     else:
-        system = stack_systems(
-            [bench_system(n, controller, record_ticks=record_ticks, seed=k, delayed=delayed) for k in range(batch)]
-        )
+        system = stack_systems([
+            bench_system(n, controller, record_ticks=record_ticks, seed=k, delayed=delayed, native=native)
+            for k in range(batch)
+        ])
     kwargs = {"batched": batch is not None}
     first = simulate(system, n_records, record_ticks * 0.01, **kwargs)
     best = min(simulate(system, n_records, record_ticks * 0.01, **kwargs).run_s for _ in range(repeats))
@@ -125,15 +127,17 @@ def load_ceiling():
     return module, None
 
 
-def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000):
+def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=True):
     """Print a throughput table for each case and size, then the batched (campaign) lines, with
-    each consensus row's fraction of the ceiling measured alongside."""
+    each consensus row's fraction of the ceiling measured alongside. ``native=False``: the
+    whole loop in XLA (no native kernel), for before/after comparisons in one sitting."""
     from coopsat import _jax  # noqa: F401  (XLA's CPU options are read when the backend starts)
 
     import jax
 
     ceiling, why = load_ceiling()
-    print(f"coopsat engine benchmark: JAX {jax.__version__} on {jax.devices()[0].platform}, float64, RK4")
+    print(f"coopsat engine benchmark: JAX {jax.__version__} on {jax.devices()[0].platform}, float64, RK4, "
+          f"{'native kernels where they apply' if native else 'XLA only (--no-native)'}")
     if ceiling is None:
         print(f"(no ceiling column: {why})")
     print(f"{'case':<14}{'N':>7}{'batch':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}"
@@ -143,7 +147,7 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000):
     def row(label, n, controller, b, delayed=False):
         total = n * (b or 1)
         ticks = steps or int(np.clip(2e7 / total, 2_000, 1_000_000) // 1000 * 1000)
-        compile_s, run_s, rate = measure(n, controller, ticks, batch=b, delayed=delayed)
+        compile_s, run_s, rate = measure(n, controller, ticks, batch=b, delayed=delayed, native=native)
         line = f"{label:<14}{n:>7}{b or 1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}"
         if ceiling is not None and controller != "none" and not delayed and total > 1:
             one = ceiling.ceiling_rate(total, ticks, threads=1)[1]

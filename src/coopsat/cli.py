@@ -375,7 +375,7 @@ def _cmd_campaign_report(args):
 def _cmd_bench(args):
     from coopsat.bench import run_benchmarks
 
-    run_benchmarks(sizes=args.sizes, steps=args.steps, batch=args.batch)
+    run_benchmarks(sizes=args.sizes, steps=args.steps, batch=args.batch, native=not args.no_native)
     return 0
 
 
@@ -522,6 +522,8 @@ def build_parser():
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")
     bench.add_argument("--steps", type=int, default=None, help="ticks per timed run (default: scaled to N)")
     bench.add_argument("--batch", type=int, default=1000, help="runs of N = 5 in one batch (0: skip)")
+    bench.add_argument("--no-native", action="store_true",
+                       help="keep the whole loop in XLA (no native CPU kernel; the engine before issue 11's kernels)")
     bench.set_defaults(func=_cmd_bench)
     return p
 

@@ -38,6 +38,7 @@ import numpy as np
 from coopsat.actuators.pulses import torque_between
 from coopsat.dynamics.plant import STATE_QUANTITIES, plant_derivative, state_quantities
 from coopsat.geometry.quaternion import quat_normalize
+from coopsat.sim import native
 from coopsat.sim.flight_software import as_flight_software
 
 
@@ -140,10 +141,13 @@ def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched)
     t0 = t_period + t_in_period
     pulsed = [p for a, p in zip(system.actuators, pulses) if a.pulsed]
 
-    def smooth(xx, wrench):
+    def reference(s, xx, wrench, t):  # the XLA tick; a native kernel's fallback and derivative
         for k in range(sub):
-            xx = _rk4(xx, wrench, t0 + k * (dt / sub), dt / sub, d_states, system, batched)
-        return xx
+            xx = _rk4(xx, wrench, t + k * (s.dt_s / sub), s.dt_s / sub, d_states, s, batched)
+        return _renormalise(s, xx)
+
+    def smooth(xx, wrench):
+        return native.smooth_tick(system, xx, wrench, t0, _moving_fields(system), reference)
 
     def split(xx):
         # Switch instants of every pulsed axis inside this tick, sorted per spacecraft: the
@@ -160,7 +164,7 @@ def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched)
             )
             for k in range(sub):
                 xx = _rk4(xx, wrench, t0 + a + k * ((b - a) / sub), (b - a) / sub, d_states, system, batched)
-        return xx
+        return _renormalise(system, xx)
 
     if not pulsed:
         x = smooth(x, _wrench(system, pulses, lambda act, p: p.level_nm))
@@ -176,6 +180,11 @@ def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched)
             lambda act, p: jnp.where(p.t_off_s >= t_in_period + dt, p.level_nm, 0.0) if act.pulsed else p.level_nm,
         )
         x = jax.lax.cond(switch_inside, split, lambda xx: smooth(xx, held), x)
+    return x
+
+
+def _renormalise(system, x):
+    """``q`` back to unit norm after a tick (RK4 does not keep it)."""
     return x._replace(q_bi=quat_normalize(x.q_bi, AXIS)) if "q" in _quantities(system) else x
 
 

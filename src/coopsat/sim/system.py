@@ -39,6 +39,10 @@ class Structure:
         Control periods between recorded samples.
     substeps : int
         RK4 steps per tick (per switch-free segment of a tick when actuation is pulsed).
+    native : bool
+        Whether a native CPU kernel may integrate the plant where one applies
+        (:mod:`coopsat.sim.native`); False keeps the whole loop in XLA (the reference the
+        kernels are tested against).
     """
 
     n_spacecraft: int
@@ -47,6 +51,7 @@ class Structure:
     ticks_per_period: int
     periods_per_record: int
     substeps: int
+    native: bool = True
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,84 @@
+"""The rigid-body kernel (:mod:`coopsat.sim.native.rigid_body`) as a JAX function."""
+
+from coopsat import _jax  # noqa: F401
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+_registered = False
+
+
+def _register():
+    global _registered
+    if not _registered:
+        from coopsat.sim.native.rigid_body import TARGET, handler
+
+        jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(handler.ctypes), platform="cpu")
+        _registered = True
+
+
+def _native(system, x, torque_b, t_s):
+    """The tick by the FFI kernel: every field reshaped (free) to component-major rows
+    (k, M), M = every spacecraft of the call."""
+    from coopsat.sim.native.rigid_body import TARGET
+
+    shape = x.omega_b.shape
+    m = int(np.prod(shape[1:]))
+    sub = np.int64(system.structure.substeps)
+
+    def rows(a):
+        return jnp.broadcast_to(a, a.shape[:1] + shape[1:]).reshape(a.shape[0], m)
+
+    call = jax.ffi.ffi_call(
+        TARGET, (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype)),
+        vmap_method="broadcast_all",
+    )
+    p = system.plant
+    q, w = call(rows(x.q_bi), rows(x.omega_b), rows(x.h_wheels_b), rows(torque_b), rows(p.inertia_kgm2),
+                rows(p.inertia_inv), system.dt_s / sub, sub)
+    return x._replace(q_bi=q.reshape(x.q_bi.shape), omega_b=w.reshape(shape))
+
+
+def rigid_body_tick(system, x, wrench, t_s, reference):
+    """One smooth tick of free rigid bodies under the held ``wrench["torque_b"]``: by the
+    native kernel on the CPU, by ``reference`` elsewhere and for derivatives.
+
+    Parameters
+    ----------
+    system : System
+        The run (engine view: component-major plant, principal inertia).
+    x : PlantState
+        Component-major, fields (k, n), or (k, B, n) for a batch in the batch-inner layout.
+    wrench : dict
+        ``torque_b`` (3, …) N·m, or nothing (no torque).
+    t_s : scalar
+        Time at the start of the tick, s (for ``reference``).
+    reference : callable
+        ``reference(system, x, wrench, t_s) -> PlantState``: the engine's XLA tick.
+
+    Returns
+    -------
+    PlantState
+
+    Notes
+    -----
+    Everything the tick reads is an argument of the ``custom_jvp`` function (the run, the
+    state, the torque, the time), none a closure: derivatives with respect to any of them
+    (a gain upstream of the torque, an inertia) are the reference's.
+    """
+    _register()
+
+    def xla(s, xx, torque_b, t):
+        return reference(s, xx, {"torque_b": torque_b}, t)
+
+    @jax.custom_jvp
+    def tick(s, xx, torque_b, t):
+        return jax.lax.platform_dependent(s, xx, torque_b, t, cpu=_native, default=xla)
+
+    @tick.defjvp
+    def _tick_jvp(primals, tangents):
+        return tick(*primals), jax.jvp(xla, primals, tangents)[1]
+
+    torque_b = jnp.broadcast_to(wrench.get("torque_b", jnp.zeros((), x.omega_b.dtype)), x.omega_b.shape)
+    return tick(system, x, torque_b, t_s)

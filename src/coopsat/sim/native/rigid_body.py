@@ -1,0 +1,117 @@
+"""RK4 of free rigid bodies under held torques, as one CPU pass: the native twin of the
+engine's smooth tick for the plant the consensus papers fly (attitude only, principal
+inertia, no gravity, no disturbance).
+
+Per spacecraft (one SIMD lane of component-major rows), ``sub`` classical RK4 steps of length
+``h`` of ``q̇ = ½ q ⊗ [0, ω]`` and ``I ω̇ = τ − ω × (I ω + h_w)`` (SPEC §0; 2010 consensus paper
+eqs. (1)–(2)) with ``τ`` and the wheel momentum ``h_w`` held, then ``q`` renormalised: what
+``sim.engine._integrate_tick`` computes for such a plant through ``_rk4``,
+``plant_derivative`` and ``quat_normalize``, in the same operation order (products and sums of
+``quat_kinematics``, ``omega_dot_b`` and ``cross``; the stage inputs ``z + (h/2)·k``; the
+update ``z + (h/6)·(((k1 + 2 k2) + 2 k3) + k4)``). XLA:CPU splits that tick into about nine
+passes over memory (its fusion does not emit several outputs from one loop); here it is one,
+with every stage in registers. The results agree with XLA's to a few ulps per tick, not
+bit for bit: XLA computes ``1/sqrt`` from the hardware estimate and Newton steps and may
+contract products and sums into FMAs; numba with ``fastmath=False`` does neither. A
+spacecraft's result does not depend on its neighbours in memory (a lane's arithmetic is the
+same in the vector body and the scalar remainder), so a run in a batch equals the run alone.
+"""
+
+import numpy as np
+from numba import carray, cfunc, njit
+
+from coopsat.sim.native.ffi import HANDLER_SIGNATURE, answer_metadata, buffer, f64_at, i64_at, vectorise_many_rows
+
+vectorise_many_rows()
+
+TARGET = "coopsat_rigid_body_rk4"
+"""Name of the XLA FFI target (CPU)."""
+
+
+@njit(fastmath=False, error_model="numpy", cache=True, inline="always")
+def _deriv(q0, q1, q2, q3, w0, w1, w2, t0, t1, t2, i0, i1, i2, j0, j1, j2, hw0, hw1, hw2):
+    """``(q̇, ω̇)``, 7 scalars, in the operation order of ``quat_kinematics`` and
+    ``omega_dot_b`` (principal moments ``i``, their reciprocals ``j``)."""
+    h0 = i0 * w0 + hw0
+    h1 = i1 * w1 + hw1
+    h2 = i2 * w2 + hw2
+    return (
+        -0.5 * ((q1 * w0 + q2 * w1) + q3 * w2),
+        0.5 * ((q0 * w0 - q3 * w1) + q2 * w2),
+        0.5 * ((q3 * w0 + q0 * w1) - q1 * w2),
+        0.5 * ((-q2 * w0 + q1 * w1) + q0 * w2),
+        j0 * (t0 - (w1 * h2 - w2 * h1)),
+        j1 * (t1 - (w2 * h0 - w0 * h2)),
+        j2 * (t2 - (w0 * h1 - w1 * h0)),
+    )
+
+
+@njit(fastmath=False, error_model="numpy", cache=True)
+def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out):
+    """One RK4 step of length ``h`` (s) for every spacecraft of component-major rows: q (4, M),
+    ω (3, M), h_w, τ, I, I⁻¹ (3, M); writes q_out (4, M), w_out (3, M), with q renormalised
+    when ``last`` (the tick's last sub-step). The loop has no branch and no inner loop, so
+    LLVM vectorises it (one spacecraft per SIMD lane)."""
+    hh = 0.5 * h
+    h6 = h * (1.0 / 6.0)  # the engine's h / 6.0, as XLA rewrites it
+    for i in range(q.shape[1]):
+        q0, q1, q2, q3 = q[0, i], q[1, i], q[2, i], q[3, i]
+        w0, w1, w2 = w[0, i], w[1, i], w[2, i]
+        t0, t1, t2 = tq[0, i], tq[1, i], tq[2, i]
+        i0, i1, i2 = inertia[0, i], inertia[1, i], inertia[2, i]
+        j0, j1, j2 = inv[0, i], inv[1, i], inv[2, i]
+        g0, g1, g2 = hw[0, i], hw[1, i], hw[2, i]
+        a0, a1, a2, a3, a4, a5, a6 = _deriv(q0, q1, q2, q3, w0, w1, w2, t0, t1, t2, i0, i1, i2, j0, j1, j2, g0, g1, g2)
+        b0, b1, b2, b3, b4, b5, b6 = _deriv(
+            q0 + hh * a0, q1 + hh * a1, q2 + hh * a2, q3 + hh * a3, w0 + hh * a4, w1 + hh * a5, w2 + hh * a6,
+            t0, t1, t2, i0, i1, i2, j0, j1, j2, g0, g1, g2,
+        )
+        c0, c1, c2, c3, c4, c5, c6 = _deriv(
+            q0 + hh * b0, q1 + hh * b1, q2 + hh * b2, q3 + hh * b3, w0 + hh * b4, w1 + hh * b5, w2 + hh * b6,
+            t0, t1, t2, i0, i1, i2, j0, j1, j2, g0, g1, g2,
+        )
+        d0, d1, d2, d3, d4, d5, d6 = _deriv(
+            q0 + h * c0, q1 + h * c1, q2 + h * c2, q3 + h * c3, w0 + h * c4, w1 + h * c5, w2 + h * c6,
+            t0, t1, t2, i0, i1, i2, j0, j1, j2, g0, g1, g2,
+        )
+        q0 = q0 + h6 * (((a0 + 2.0 * b0) + 2.0 * c0) + d0)
+        q1 = q1 + h6 * (((a1 + 2.0 * b1) + 2.0 * c1) + d1)
+        q2 = q2 + h6 * (((a2 + 2.0 * b2) + 2.0 * c2) + d2)
+        q3 = q3 + h6 * (((a3 + 2.0 * b3) + 2.0 * c3) + d3)
+        # quat_normalize's q / sqrt(|q|²), which XLA makes q · (1 / sqrt(|q|²)); × 1 is exact.
+        scale = 1.0 / np.sqrt(((q0 * q0 + q1 * q1) + q2 * q2) + q3 * q3) if last else 1.0
+        q_out[0, i] = q0 * scale
+        q_out[1, i] = q1 * scale
+        q_out[2, i] = q2 * scale
+        q_out[3, i] = q3 * scale
+        w_out[0, i] = w0 + h6 * (((a4 + 2.0 * b4) + 2.0 * c4) + d4)
+        w_out[1, i] = w1 + h6 * (((a5 + 2.0 * b5) + 2.0 * c5) + d5)
+        w_out[2, i] = w2 + h6 * (((a6 + 2.0 * b6) + 2.0 * c6) + d6)
+
+
+@cfunc(HANDLER_SIGNATURE, nopython=True, error_model="numpy", cache=True)
+def handler(frame):
+    """XLA FFI handler of :data:`TARGET`. Arguments q (…, 4, M), ω, h_w, τ, I, I⁻¹ (…, 3, M),
+    the sub-step h (…) s and the number of sub-steps (…) int64; results q (…, 4, M), ω (…, 3, M). The leading dimensions (…, L
+    in all) are vmap's: each of the L problems is done in turn."""
+    if answer_metadata(frame):
+        return 0
+    q_at, lead, m = buffer(frame, 0, False)
+    q = carray(f64_at(q_at), (lead, 4, m))
+    w = carray(f64_at(buffer(frame, 1, False)[0]), (lead, 3, m))
+    hw = carray(f64_at(buffer(frame, 2, False)[0]), (lead, 3, m))
+    tq = carray(f64_at(buffer(frame, 3, False)[0]), (lead, 3, m))
+    inertia = carray(f64_at(buffer(frame, 4, False)[0]), (lead, 3, m))
+    inv = carray(f64_at(buffer(frame, 5, False)[0]), (lead, 3, m))
+    h = carray(f64_at(buffer(frame, 6, False)[0]), lead)
+    sub = carray(i64_at(buffer(frame, 7, False)[0]), lead)
+    q_out = carray(f64_at(buffer(frame, 0, True)[0]), (lead, 4, m))
+    w_out = carray(f64_at(buffer(frame, 1, True)[0]), (lead, 3, m))
+    for k in range(lead):
+        # Later sub-steps start from the previous one's result, in place (same index read
+        # before written).
+        for s in range(sub[k]):
+            first = s == 0
+            _rows(q[k] if first else q_out[k], w[k] if first else w_out[k], hw[k], tq[k], inertia[k], inv[k], h[k],
+                  s == sub[k] - 1, q_out[k], w_out[k])
+    return 0

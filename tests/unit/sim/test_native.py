@@ -106,3 +106,19 @@ def test_gradient_through_native_tick_is_xla_gradient():
     for a, b in zip(native, xla):
         assert np.all(np.isfinite(np.asarray(a))) and np.max(np.abs(np.asarray(b))) > 0
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-9, atol=1e-14)
+
+
+def test_gpu_lowering_keeps_the_xla_tick():
+    # No GPU here: lower the same run for CUDA (jax.export needs no device) and check that the
+    # CPU-only custom call is not in it, while the CPU lowering has it.
+    from jax import export
+
+    system = bench_system(7, "consensus-sync", record_ticks=100)
+    run = jax.jit(lambda s: run_samples(s, 1))
+
+    def module(platform):
+        checks = [export.DisabledSafetyCheck.custom_call(TARGET)]
+        return export.export(run, platforms=(platform,), disabled_checks=checks)(system).mlir_module()
+
+    assert TARGET in module("cpu")
+    assert TARGET not in module("cuda")

@@ -28,7 +28,6 @@ class Kernel(NamedTuple):
     ``reference(system, x, wrench, t_s)`` the engine's XLA code for it (the fallback and the
     derivative)."""
 
-    name: str
     applies: Callable
     tick: Callable
 
@@ -48,7 +47,7 @@ def _rigid_body_tick(system, x, wrench, t_s, reference):
     return rigid_body_tick(system, x, wrench, t_s, reference)
 
 
-KERNELS = (Kernel("rigid-body-rk4", _rigid_body_applies, _rigid_body_tick),)
+KERNELS = (Kernel(_rigid_body_applies, _rigid_body_tick),)
 
 
 def smooth_tick(system, x, wrench, t_s, fields, reference):

@@ -179,12 +179,22 @@ class ConsensusLaw:
 
     def step(self, t, y, inbox, state, key):
         """Body torque command ``torque_b`` (3, n); records it, and ``q_ref`` (4,) when tracking."""
+        return self.outputs(t, self.torque(t, y, inbox), state)
+
+    def torque(self, t, y, inbox):
+        """The command (3, n) N·m of law (3), or (4) when tracking, from ``inbox``'s messages."""
         args = (y["q"], y["omega"], inbox.msg["q"], inbox.msg["omega"], inbox.dst, inbox.weight, self.alpha, self.beta)
         if not self.track:
-            u = consensus_sync_torque(*args, self.short_way, 0)
+            return consensus_sync_torque(*args, self.short_way, 0)
+        q_ref = reference_attitude(self.q_ref0, self.omega_ref_b, t)
+        return consensus_track_torque(*args, self.k_p, self.k_d, q_ref, self.omega_ref_b, self.short_way, 0)
+
+    def outputs(self, t, u, state):
+        """What :meth:`step` returns for the command ``u``: (commands, state, record). A native
+        kernel that computes ``u`` (:mod:`coopsat.sim.native`) returns this too."""
+        if not self.track:
             return {"torque_b": u}, state, {"torque_command": u}
         q_ref = reference_attitude(self.q_ref0, self.omega_ref_b, t)
-        u = consensus_track_torque(*args, self.k_p, self.k_d, q_ref, self.omega_ref_b, self.short_way, 0)
         return {"torque_b": u}, state, {"torque_command": u, "q_ref": q_ref}
 
     def output_specs(self):

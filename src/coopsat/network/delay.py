@@ -110,9 +110,11 @@ class DelayedNetwork:
         tau, next_draw = self._tau(frame, state, k_tau) if self.random else (state["tau"], state["next_draw"])
         delay = jnp.minimum(self.delay_periods[row] + self.hops[row] * tau, self.buffer_periods - 1)
         slot_then = ((frame - delay) % self.buffer_periods) * n
-        msg = jax.tree_util.tree_map(lambda b: jnp.take(b, slot_then + self.src, axis=-1), buffer)
+        index = slot_then + self.src
+        msg = jax.tree_util.tree_map(lambda b: jnp.take(b, index, axis=-1), buffer)
         own = jax.tree_util.tree_map(lambda b: jnp.take(b, slot_then + self.dst, axis=-1), buffer)
         weight = self.weight[row]
+        source = (buffer, index)
         new_state = {"buffer": buffer, "tau": tau, "next_draw": next_draw}
         if self.lossy:
             lost = jax.random.uniform(k_loss, weight.shape) < self.loss_probability[row]
@@ -120,10 +122,11 @@ class DelayedNetwork:
                 keep = lambda new, old: jnp.where(lost, old, new)  # noqa: E731
                 msg, own = jax.tree_util.tree_map(keep, (msg, own), state["last"])
                 new_state["last"] = (msg, own)
+                source = None  # a held message is no longer a gather of the buffer
             else:
                 weight = jnp.where(lost, 0.0, weight)
         record = {"network_tau_periods": tau} if self.random else {}
-        return Inbox(msg, weight, self.dst, own), new_state, record
+        return Inbox(msg, weight, self.dst, own, source), new_state, record
 
     def output_specs(self):
         if not self.random:

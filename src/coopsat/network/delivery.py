@@ -53,12 +53,19 @@ class Inbox(NamedTuple):
         Per link, the *receiver's own* outbox from the same instant as the message it got (as
         ``msg``): what a protocol that delays the whole relative state uses. Free when unused
         (XLA drops what no law reads).
+    source : (dict of arrays, int array) or None
+        ``(table, index)`` when every message is a plain gather, ``msg[k] = table[k][..., index]``
+        (``table[k]``: ``(k, T)``, the transmitters' current outboxes or a delay line;
+        ``index``: shaped as ``dst``); None when the messages are not (held lost messages).
+        A native kernel (:mod:`coopsat.sim.native`) gathers from it in its own loop instead of
+        reading ``msg``; a law written in JAX ignores it.
     """
 
     msg: dict
     weight: jnp.ndarray
     dst: jnp.ndarray
     own: dict
+    source: tuple = None
 
 
 def active_row(switch_ticks, tick):
@@ -94,7 +101,8 @@ class IdealNetwork:
         """(inbox, state, record) of this period; the outbox is component-major ``(k, n)``."""
         msg = deliver_ideal(outbox, self.src, spacecraft_axis=-1)
         own = deliver_ideal(outbox, self.dst, spacecraft_axis=-1)
-        return Inbox(msg, self.weight[active_row(self.switch_ticks, tick)], self.dst, own), state, {}
+        weight = self.weight[active_row(self.switch_ticks, tick)]
+        return Inbox(msg, weight, self.dst, own, (outbox, self.src)), state, {}
 
     def output_specs(self):
         return {}

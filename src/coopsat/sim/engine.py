@@ -230,7 +230,9 @@ def _command(system, x, st, tick):
     inbox, net_state, net_record = system.network.deliver(
         tick, outbox, st["network"], jax.random.fold_in(key, _KEY_NETWORK)
     )
-    cmd, ctrl_state, record = ctrl.step(t, y, inbox, st["controller"], jax.random.fold_in(key, _KEY_CONTROLLER))
+    cmd, ctrl_state, record = native.control_step(
+        system, ctrl, t, y, inbox, st["controller"], jax.random.fold_in(key, _KEY_CONTROLLER)
+    )
     record = {**measured, **net_record, **record}
     pulses, act_states = [], []
     for j, (a, a_state) in enumerate(zip(system.actuators, st["actuators"])):

@@ -11,6 +11,7 @@ import pytest
 
 from coopsat.bench import bench_system
 from coopsat.sim.engine import run_samples, simulate
+from coopsat.sim.native.consensus import TARGET as LAW_TARGET
 from coopsat.sim.native.rigid_body import TARGET
 from coopsat.sim.system import stack_systems
 
@@ -113,12 +114,13 @@ def test_gpu_lowering_keeps_the_xla_tick():
     # CPU-only custom call is not in it, while the CPU lowering has it.
     from jax import export
 
-    system = bench_system(7, "consensus-sync", record_ticks=100)
+    system = bench_system(200, "consensus-sync", record_ticks=100)  # large enough for the law kernel
     run = jax.jit(lambda s: run_samples(s, 1))
 
     def module(platform):
-        checks = [export.DisabledSafetyCheck.custom_call(TARGET)]
+        checks = [export.DisabledSafetyCheck.custom_call(t) for t in (TARGET, LAW_TARGET)]
         return export.export(run, platforms=(platform,), disabled_checks=checks)(system).mlir_module()
 
-    assert TARGET in module("cpu")
-    assert TARGET not in module("cuda")
+    cpu, cuda = module("cpu"), module("cuda")
+    assert TARGET in cpu and LAW_TARGET in cpu
+    assert TARGET not in cuda and LAW_TARGET not in cuda

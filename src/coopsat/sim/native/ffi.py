@@ -20,6 +20,7 @@ handler answers the first with :func:`answer_metadata` and ignores the others.
 
 import llvmlite.binding as llvm
 from numba import carray, njit, types
+from numba.core import cgutils
 from numba.extending import intrinsic
 
 HANDLER_SIGNATURE = types.int64(types.CPointer(types.int64))
@@ -48,7 +49,25 @@ f64_at = _pointer_cast(types.float64)
 """``(double*) address``."""
 i64_at = _pointer_cast(types.int64)
 """``(int64_t*) address``."""
-_i32_at = _pointer_cast(types.int32)
+i32_at = _pointer_cast(types.int32)
+"""``(int32_t*) address``."""
+
+
+def stack_doubles(size):
+    """An intrinsic ``() -> double*`` to ``size`` doubles on the stack (an ``alloca`` in the
+    entry block of the function it is inlined into): scratch that LLVM knows no argument
+    aliases, so a loop that loads from arguments and stores there (or the reverse) is
+    vectorised with no run-time overlap check, even when a kernel's output buffer is its
+    input (XLA's in-place aliasing)."""
+
+    @intrinsic
+    def stack(typingctx):
+        def codegen(context, builder, signature, args):
+            return cgutils.alloca_once(builder, context.get_value_type(types.float64), size=size)
+
+        return types.CPointer(types.float64)(), codegen
+
+    return stack
 
 
 @njit(cache=True)
@@ -59,7 +78,7 @@ def answer_metadata(frame):
     if extension != 0:
         ext = carray(i64_at(extension), 4)
         if (ext[1] & 0xFFFFFFFF) == _METADATA:
-            meta = carray(_i32_at(ext[3]), 9)
+            meta = carray(i32_at(ext[3]), 9)
             meta[6] = API_VERSION[0]
             meta[7] = API_VERSION[1]
             meta[8] = 0  # traits: none

@@ -1,0 +1,73 @@
+"""The consensus-law kernel (:mod:`coopsat.sim.native.consensus`) as a JAX function."""
+
+from coopsat import _jax  # noqa: F401
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from coopsat.control.consensus import reference_attitude
+from coopsat.sim.native.consensus import N_PARAMS, TARGET, handler
+
+jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(handler.ctypes), platform="cpu")
+
+
+def _native(law, t, y, inbox):
+    """The command by the FFI kernel: every link array as one row (1, E) and the per-run
+    scalars as (1, N_PARAMS), so that vmap's dimensions lead every argument."""
+    table, index = inbox.source
+    padded = inbox.dst.ndim == 2
+    zero = jnp.zeros((), y["q"].dtype)
+    q_ref = reference_attitude(law.q_ref0, law.omega_ref_b, t) if law.track else jnp.zeros(4, y["q"].dtype)
+    params = jnp.concatenate([
+        jnp.stack([law.alpha + zero, law.beta + zero, law.k_p + zero, law.k_d + zero]), q_ref, law.omega_ref_b + zero,
+    ]).reshape(1, N_PARAMS)
+    flags = np.array([[padded, law.short_way, law.track]], np.int64)
+    row = lambda a: a.reshape(1, -1)  # noqa: E731
+    call = jax.ffi.ffi_call(TARGET, jax.ShapeDtypeStruct(y["omega"].shape, y["omega"].dtype),
+                            vmap_method="broadcast_all")
+    return call(table["q"], table["omega"], y["q"], y["omega"], row(index.astype(jnp.int32)),
+                row(inbox.dst.astype(jnp.int32)), row(jnp.broadcast_to(inbox.weight, index.shape) + zero), params,
+                flags)
+
+
+def consensus_step(controller, t, y, inbox, state, key):
+    """:meth:`ConsensusLaw.step <coopsat.control.consensus.ConsensusLaw.step>` with the command
+    by the native kernel on the CPU, by the law's JAX code elsewhere and for derivatives.
+
+    Parameters
+    ----------
+    controller : ConsensusLaw
+    t : scalar
+        Time, s.
+    y : dict
+        ``q`` (4, n) and ``omega`` (3, n), component-major: what each spacecraft measures.
+    inbox : Inbox
+        With ``source``: the messages as a gather.
+    state, key
+        As ``step``.
+
+    Returns
+    -------
+    (commands, state, record), as ``step``.
+
+    Notes
+    -----
+    Everything the command reads is an argument of the ``custom_jvp`` function (the law, the
+    time, the measurements, the inbox), none a closure: a derivative with respect to a gain,
+    an initial state or a weight is the JAX law's.
+    """
+
+    def xla(law, tt, yy, box):
+        return law.torque(tt, yy, box)
+
+    @jax.custom_jvp
+    def torque(law, tt, yy, box):
+        return jax.lax.platform_dependent(law, tt, yy, box, cpu=_native, default=xla)
+
+    @torque.defjvp
+    def _torque_jvp(primals, tangents):
+        return torque(*primals), jax.jvp(xla, primals, tangents)[1]
+
+    u = torque(controller, t, {"q": y["q"], "omega": y["omega"]}, inbox)
+    return controller.outputs(t, u, state)

@@ -33,6 +33,11 @@ def _native(system, x, torque_b, t_s):
     call = jax.ffi.ffi_call(
         TARGET, (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype)),
         vmap_method="broadcast_all",
+        # One run, (k, n): the new state overwrites the old, and XLA keeps no copy of it a tick
+        # (consensus N = 5: 11.1 -> 13.1 M spacecraft-steps/s). A batch-inner state (k, B, n)
+        # reaches the call through a reshape, and aliasing that made XLA copy the state both
+        # into and out of the call (a batch of 1000 runs of N = 5: 2x slower): not aliased.
+        input_output_aliases={0: 0, 1: 1} if x.q_bi.ndim == 2 else {},
     )
     p = system.plant
     q, w = call(rows(x.q_bi), rows(x.omega_b), rows(x.h_wheels_b), rows(torque_b), rows(p.inertia_kgm2),

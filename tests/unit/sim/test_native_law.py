@@ -169,3 +169,25 @@ def test_gradient_is_the_jax_laws():
     for a, b in zip(native, xla):
         assert np.max(np.abs(np.asarray(b))) > 0
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("layout", ["padded", "edges"])
+def test_a_column_outside_the_table_gives_nan_as_jnp_take(layout):
+    # A corrupt index must not read stray memory: the kernel fills NaN as jnp.take does, so
+    # the receiver's command is NaN (the engine then stops on the non-finite state).
+    controller, net = law(), ideal(ring_adjacency(N), layout)
+    y = measurements(N, 11)
+
+    @jax.jit
+    def both(y):
+        inbox = net.deliver(0, y, net.init(y), None)[0]
+        table, index = inbox.source
+        index = index.at[(0, 5) if index.ndim == 2 else 5].set(10 * N)
+        msg = {k: jnp.take(v, index, axis=-1) for k, v in table.items()}
+        box = inbox._replace(msg=msg, source=(table, index))
+        return consensus_step(controller, 0.0, y, box, (), None)[0]["torque_b"], controller.step(0.0, y, box, (), None)[0]["torque_b"]
+
+    native, xla = (np.asarray(u) for u in both(y))
+    assert np.isnan(xla).any()
+    np.testing.assert_array_equal(np.isnan(native), np.isnan(xla))
+    np.testing.assert_allclose(native[~np.isnan(xla)], xla[~np.isnan(xla)], rtol=0, atol=1e-13)

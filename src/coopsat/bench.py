@@ -135,6 +135,8 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
 
     import jax
 
+    from coopsat.sim.native.pool import PARALLEL_MIN
+
     ceiling, why = load_ceiling()
     print(f"coopsat engine benchmark: JAX {jax.__version__} on {jax.devices()[0].platform}, float64, RK4, "
           f"{'native kernels where they apply' if native else 'XLA only (--no-native)'}")
@@ -152,12 +154,15 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
         if ceiling is not None and controller != "none" and not delayed and total > 1:
             one = ceiling.ceiling_rate(total, ticks, threads=1)[1]
             two = ceiling.ceiling_rate(total, ticks, threads=2)[1]
-            # On as many cores as the row used: one for a run, every CPU device for a batch.
-            line += f"{one / 1e6:>12.2f}{two / 1e6:>8.2f}{rate / (two if b and cores > 1 else one):>11.2f}"
+            # On as many cores as the row used: every CPU device for a batch; for a single run
+            # one, or all when its native kernels split it over XLA's thread pool.
+            both = cores > 1 and (b or (native and total >= PARALLEL_MIN))
+            line += f"{one / 1e6:>12.2f}{two / 1e6:>8.2f}{rate / (two if both else one):>11.2f}"
         print(line, flush=True)
 
     if ceiling is not None:
-        print(f"(of ceiling: on as many cores as the row used: one for a single run, {cores} for a batch)")
+        print(f"(of ceiling: on as many cores as the row used: {cores} for a batch and, with native kernels, for a "
+              f"single run of {PARALLEL_MIN} spacecraft or more; else one)")
     for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
         for n in sizes:
             row(label, n, controller, None)

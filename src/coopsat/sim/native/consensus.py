@@ -22,7 +22,10 @@ run's result depends only on its own rows, so a run in a batch equals the run al
 """
 
 import numpy as np
-from numba import carray, cfunc, njit
+from numba import carray, cfunc, njit, types
+
+from coopsat.sim.native import pool
+from coopsat.sim.native.pool import PARALLEL_MIN
 
 from coopsat.sim.native.ffi import (
     HANDLER_SIGNATURE, answer_metadata, buffer, f64_at, i32_at, i64_at, stack_doubles, vectorise_many_rows,
@@ -32,6 +35,11 @@ vectorise_many_rows()
 
 TARGET = "coopsat_consensus_law"
 """Name of the XLA FFI target (CPU)."""
+
+TASK = "coopsat_consensus_law_task"
+"""C name of the kernel's pool task."""
+
+
 
 N_PARAMS = 11
 """Per-run scalars, in order: α, β, K, D, q_r (4), ω_r (3)."""
@@ -88,9 +96,10 @@ def _add_terms(mq, mw, off, q, w, r0, weight, base, m, alpha, beta, short_way, a
 
 
 @njit(fastmath=False, error_model="numpy", cache=True)
-def _padded(q_tab, w_tab, q, w, index, weight, p, short_way, track, u):
+def _padded(q_tab, w_tab, q, w, index, weight, p, short_way, track, u, lo, hi):
     """Law (3) or (4) (``p``: :data:`N_PARAMS`) over a padded in-neighbour table:
-    ``index``/``weight`` (d·n,), slot k of receiver i at ``k·n + i``; writes ``u`` (3, n).
+    ``index``/``weight`` (d·n,), slot k of receiver i at ``k·n + i``; writes ``u`` (3, n) of
+    receivers ``lo`` to ``hi`` − 1.
 
     Receivers go in blocks of :data:`BLOCK`, one per SIMD lane. Within a block a slot's
     transmitters are often consecutive table columns (rings, chains, circulant graphs, a delay
@@ -101,8 +110,8 @@ def _padded(q_tab, w_tab, q, w, index, weight, p, short_way, track, u):
     scratch = carray(_stack_rows(), (10, BLOCK))
     mq, mw, acc = scratch[:4], scratch[4:7], scratch[7:]
     alpha, beta = p[0], p[1]
-    for r0 in range(0, n, BLOCK):
-        m = min(BLOCK, n - r0)
+    for r0 in range(lo, hi, BLOCK):
+        m = min(BLOCK, hi - r0)
         for i in range(m):
             acc[0, i] = 0.0
             acc[1, i] = 0.0
@@ -157,32 +166,67 @@ def _finish(q, w, p, short_way, track, r0, m, acc, u):
         u[0, r], u[1, r], u[2, r] = u0, u1, u2
 
 
+_WORDS = 13
+"""Kernel words of a pool record: the addresses of the q and ω table, q, ω, index, weight,
+params and u; T, n, E; short way, tracking."""
+
+
+@cfunc(types.void(types.int64), nopython=True, error_model="numpy", cache=True)
+def _task(data):
+    """One span of receivers (whole blocks) on XLA's pool (:mod:`coopsat.sim.native.pool`)."""
+    k, tasks, words = pool.task_words(data)
+    t, n, links = words[8], words[9], words[10]
+    per = -(-n // (tasks * BLOCK)) * BLOCK
+    _padded(carray(f64_at(words[0]), (4, t)), carray(f64_at(words[1]), (3, t)), carray(f64_at(words[2]), (4, n)),
+            carray(f64_at(words[3]), (3, n)), carray(i32_at(words[4]), links), carray(f64_at(words[5]), links),
+            carray(f64_at(words[6]), N_PARAMS), words[11] != 0, words[12] != 0, carray(f64_at(words[7]), (3, n)),
+            min(n, k * per), min(n, (k + 1) * per))
+    pool.finish(data)
+
+
+pool.define(TASK, _task)
+_task_address = pool.symbol_address(TASK)
+
+
 @cfunc(HANDLER_SIGNATURE, nopython=True, error_model="numpy", cache=True)
 def handler(frame):
     """XLA FFI handler of :data:`TARGET`. Arguments: the message table q (…, 4, T) and
     ω (…, 3, T); the receivers' own q (…, 4, n) and ω (…, 3, n); per link (…, 1, E) the
     table column ``index`` (int32), the receiver ``dst`` (int32) and the weight; the
     per-run scalars (…, 1, :data:`N_PARAMS`); flags (…, 1, 3) int64: padded table, short way,
-    tracking. Result: u (…, 3, n) N·m. Leading dimensions (…) are vmap's, done in turn."""
+    tracking. Result: u (…, 3, n) N·m. Leading dimensions (…) are vmap's, done in turn. One
+    run of at least :data:`PARALLEL_MIN` spacecraft over a padded table is cut into spans of
+    receivers run on XLA's thread pool (the handler returns before they finish; XLA waits)."""
     if answer_metadata(frame):
         return 0
     tab_at, lead, t = buffer(frame, 0, False)
-    q_tab = carray(f64_at(tab_at), (lead, 4, t))
-    w_tab = carray(f64_at(buffer(frame, 1, False)[0]), (lead, 3, t))
     q_at, _, n = buffer(frame, 2, False)
-    q = carray(f64_at(q_at), (lead, 4, n))
-    w = carray(f64_at(buffer(frame, 3, False)[0]), (lead, 3, n))
     index_at, _, links = buffer(frame, 4, False)
-    index = carray(i32_at(index_at), (lead, links))
-    dst = carray(i32_at(buffer(frame, 5, False)[0]), (lead, links))
-    weight = carray(f64_at(buffer(frame, 6, False)[0]), (lead, links))
-    params = carray(f64_at(buffer(frame, 7, False)[0]), (lead, N_PARAMS))
+    addresses = (tab_at, buffer(frame, 1, False)[0], q_at, buffer(frame, 3, False)[0], index_at,
+                 buffer(frame, 6, False)[0], buffer(frame, 7, False)[0], buffer(frame, 0, True)[0])
     flags = carray(i64_at(buffer(frame, 8, False)[0]), (lead, 3))
-    u = carray(f64_at(buffer(frame, 0, True)[0]), (lead, 3, n))
+    if lead == 1 and n >= PARALLEL_MIN and flags[0, 0] != 0:
+        tasks = min(pool.threads(frame), n // (PARALLEL_MIN // 2))
+        if tasks > 1:
+            r, words = pool.record(tasks, _WORDS)
+            for i in range(8):
+                words[i] = addresses[i]
+            words[8], words[9], words[10], words[11], words[12] = t, n, links, flags[0, 1], flags[0, 2]
+            if pool.start(frame, r, _task_address()):
+                return 0
+    q_tab = carray(f64_at(addresses[0]), (lead, 4, t))
+    w_tab = carray(f64_at(addresses[1]), (lead, 3, t))
+    q = carray(f64_at(addresses[2]), (lead, 4, n))
+    w = carray(f64_at(addresses[3]), (lead, 3, n))
+    index = carray(i32_at(addresses[4]), (lead, links))
+    dst = carray(i32_at(buffer(frame, 5, False)[0]), (lead, links))
+    weight = carray(f64_at(addresses[5]), (lead, links))
+    params = carray(f64_at(addresses[6]), (lead, N_PARAMS))
+    u = carray(f64_at(addresses[7]), (lead, 3, n))
     for b in range(lead):
         short_way, track = flags[b, 1] != 0, flags[b, 2] != 0
         if flags[b, 0] != 0:
-            _padded(q_tab[b], w_tab[b], q[b], w[b], index[b], weight[b], params[b], short_way, track, u[b])
+            _padded(q_tab[b], w_tab[b], q[b], w[b], index[b], weight[b], params[b], short_way, track, u[b], 0, n)
         else:
             _edges(q_tab[b], w_tab[b], q[b], w[b], index[b], dst[b], weight[b], params[b], short_way, track, u[b])
     return 0

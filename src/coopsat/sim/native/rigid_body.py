@@ -18,7 +18,10 @@ same in the vector body and the scalar remainder), so a run in a batch equals th
 """
 
 import numpy as np
-from numba import carray, cfunc, njit
+from numba import carray, cfunc, njit, types
+
+from coopsat.sim.native import pool
+from coopsat.sim.native.pool import PARALLEL_MIN
 
 from coopsat.sim.native.ffi import (
     HANDLER_SIGNATURE, answer_metadata, buffer, f64_at, i64_at, stack_doubles, vectorise_many_rows,
@@ -28,6 +31,11 @@ vectorise_many_rows()
 
 TARGET = "coopsat_rigid_body_rk4"
 """Name of the XLA FFI target (CPU)."""
+
+TASK = "coopsat_rigid_body_rk4_task"
+"""C name of the kernel's pool task."""
+
+
 
 
 @njit(fastmath=False, error_model="numpy", cache=True, inline="always")
@@ -55,10 +63,10 @@ _stack_rows = stack_doubles(7 * BLOCK)
 
 
 @njit(fastmath=False, error_model="numpy", cache=True)
-def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out):
-    """One RK4 step of length ``h`` (s) for every spacecraft of component-major rows: q (4, M),
-    ω (3, M), h_w, τ, I, I⁻¹ (3, M); writes q_out (4, M), w_out (3, M), with q renormalised
-    when ``last`` (the tick's last sub-step). ``q_out``/``w_out`` may be ``q``/``w`` (XLA
+def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out, lo, hi):
+    """One RK4 step of length ``h`` (s) for spacecraft ``lo`` to ``hi`` − 1 of component-major
+    rows: q (4, M), ω (3, M), h_w, τ, I, I⁻¹ (3, M); writes q_out (4, M), w_out (3, M), with q
+    renormalised when ``last`` (the tick's last sub-step). ``q_out``/``w_out`` may be ``q``/``w`` (XLA
     updates the state in place).
 
     Spacecraft go in blocks of :data:`BLOCK`, one per SIMD lane: the block's new state goes to
@@ -69,8 +77,8 @@ def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out):
     new = carray(_stack_rows(), (7, BLOCK))
     hh = 0.5 * h
     h6 = h * (1.0 / 6.0)  # the engine's h / 6.0, as XLA rewrites it
-    for r0 in range(0, q.shape[1], BLOCK):
-        m = min(BLOCK, q.shape[1] - r0)
+    for r0 in range(lo, hi, BLOCK):
+        m = min(BLOCK, hi - r0)
         for i in range(m):
             k = np.uint64(i)
             r = np.uint64(r0) + k
@@ -113,28 +121,71 @@ def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out):
             w_out[0, r], w_out[1, r], w_out[2, r] = new[4, k], new[5, k], new[6, k]
 
 
+@njit(fastmath=False, error_model="numpy", cache=True)
+def _steps(q, w, hw, tq, inertia, inv, h, sub, q_out, w_out, lo, hi):
+    """``sub`` RK4 steps of spacecraft ``lo`` to ``hi`` − 1; later ones from the previous one's
+    result, in place."""
+    for s in range(sub):
+        first = s == 0
+        _rows(q if first else q_out, w if first else w_out, hw, tq, inertia, inv, h, s == sub - 1, q_out, w_out, lo, hi)
+
+
+_WORDS = 11
+"""Kernel words of a pool record: the addresses of q, ω, h_w, τ, I, I⁻¹, q_out, ω_out; M; the
+sub-steps; h (float64 bits)."""
+
+
+@cfunc(types.void(types.int64), nopython=True, error_model="numpy", cache=True)
+def _task(data):
+    """One span of the spacecraft on XLA's pool (:mod:`coopsat.sim.native.pool`)."""
+    k, tasks, words = pool.task_words(data)
+    m = words[8]
+    rows4 = lambda i: carray(f64_at(words[i]), (4, m))  # noqa: E731
+    rows3 = lambda i: carray(f64_at(words[i]), (3, m))  # noqa: E731
+    h = carray(f64_at(words.ctypes.data + 8 * 10), 1)[0]
+    per = -(-m // tasks)
+    _steps(rows4(0), rows3(1), rows3(2), rows3(3), rows3(4), rows3(5), h, words[9], rows4(6), rows3(7),
+           min(m, k * per), min(m, (k + 1) * per))
+    pool.finish(data)
+
+
+pool.define(TASK, _task)
+_task_address = pool.symbol_address(TASK)
+
+
 @cfunc(HANDLER_SIGNATURE, nopython=True, error_model="numpy", cache=True)
 def handler(frame):
     """XLA FFI handler of :data:`TARGET`. Arguments q (…, 4, M), ω, h_w, τ, I, I⁻¹ (…, 3, M),
-    the sub-step h (…) s and the number of sub-steps (…) int64; results q (…, 4, M), ω (…, 3, M). The leading dimensions (…, L
-    in all) are vmap's: each of the L problems is done in turn."""
+    the sub-step h (…) s and the number of sub-steps (…) int64; results q (…, 4, M), ω (…, 3,
+    M). The leading dimensions (…, L in all) are vmap's: each of the L problems is done in
+    turn. One problem of at least :data:`PARALLEL_MIN` spacecraft is cut into spans run on
+    XLA's thread pool (the handler returns before they finish; XLA waits)."""
     if answer_metadata(frame):
         return 0
     q_at, lead, m = buffer(frame, 0, False)
-    q = carray(f64_at(q_at), (lead, 4, m))
-    w = carray(f64_at(buffer(frame, 1, False)[0]), (lead, 3, m))
-    hw = carray(f64_at(buffer(frame, 2, False)[0]), (lead, 3, m))
-    tq = carray(f64_at(buffer(frame, 3, False)[0]), (lead, 3, m))
-    inertia = carray(f64_at(buffer(frame, 4, False)[0]), (lead, 3, m))
-    inv = carray(f64_at(buffer(frame, 5, False)[0]), (lead, 3, m))
+    addresses = (q_at, buffer(frame, 1, False)[0], buffer(frame, 2, False)[0], buffer(frame, 3, False)[0],
+                 buffer(frame, 4, False)[0], buffer(frame, 5, False)[0], buffer(frame, 0, True)[0],
+                 buffer(frame, 1, True)[0])
     h = carray(f64_at(buffer(frame, 6, False)[0]), lead)
     sub = carray(i64_at(buffer(frame, 7, False)[0]), lead)
-    q_out = carray(f64_at(buffer(frame, 0, True)[0]), (lead, 4, m))
-    w_out = carray(f64_at(buffer(frame, 1, True)[0]), (lead, 3, m))
+    if lead == 1 and m >= PARALLEL_MIN:
+        tasks = min(pool.threads(frame), m // (PARALLEL_MIN // 2))
+        if tasks > 1:
+            r, words = pool.record(tasks, _WORDS)
+            for i in range(8):
+                words[i] = addresses[i]
+            words[8], words[9] = m, sub[0]
+            carray(f64_at(words.ctypes.data + 8 * 10), 1)[0] = h[0]
+            if pool.start(frame, r, _task_address()):
+                return 0
+    q = carray(f64_at(addresses[0]), (lead, 4, m))
+    w = carray(f64_at(addresses[1]), (lead, 3, m))
+    hw = carray(f64_at(addresses[2]), (lead, 3, m))
+    tq = carray(f64_at(addresses[3]), (lead, 3, m))
+    inertia = carray(f64_at(addresses[4]), (lead, 3, m))
+    inv = carray(f64_at(addresses[5]), (lead, 3, m))
+    q_out = carray(f64_at(addresses[6]), (lead, 4, m))
+    w_out = carray(f64_at(addresses[7]), (lead, 3, m))
     for k in range(lead):
-        # Later sub-steps start from the previous one's result, in place.
-        for s in range(sub[k]):
-            first = s == 0
-            _rows(q[k] if first else q_out[k], w[k] if first else w_out[k], hw[k], tq[k], inertia[k], inv[k], h[k],
-                  s == sub[k] - 1, q_out[k], w_out[k])
+        _steps(q[k], w[k], hw[k], tq[k], inertia[k], inv[k], h[k], sub[k], q_out[k], w_out[k], 0, m)
     return 0

@@ -1,0 +1,206 @@
+"""Running a kernel's spans of spacecraft on XLA's own CPU thread pool, asynchronously.
+
+XLA:CPU hands an FFI handler its intra-op thread pool (``XLA_FFI_ThreadPool_Schedule``) and
+lets it finish later (``XLA_FFI_Future``): the handler schedules one task per span, sets the
+call's future and returns; the last task to finish marks the future available, and XLA
+keeps every buffer alive until then (``jaxlib/include/xla/ffi/api/c_api.h``). The handler
+never waits, so it cannot deadlock on a busy or one-thread pool, and no thread is started
+besides XLA's own (numba's ``prange`` would start its own pool: measured slower, and it
+cannot be cached).
+
+The tasks share a record in memory from ``malloc``: word 0 counts the tasks still running,
+word 1 holds the future, word 2 XLA's API, word 3 the number of tasks; then one word per task
+holding its index k (task k's data is the address of that word); then the kernel's words
+(its buffers' addresses and sizes). The first span runs on the calling thread while the
+others run on the pool; the last task to finish frees the record.
+
+numba caches each compiled function with the code of everything it calls, and checks only the
+source file of the function itself: after editing this module or ``ffi.py`` (or a constant
+here, such as :data:`PARALLEL_MIN`), delete ``src/coopsat/sim/native/__pycache__`` so the
+kernels are rebuilt.
+
+The words of XLA's API table read here (``XLA_FFI_Api``: size, extension, a 3-word version,
+the internal API, then the functions in order): 17 ``ThreadPool_Schedule``, 18
+``ThreadPool_NumThreads``, 19 ``Future_Create``, 20 ``Future_SetAvailable``. Call frame word
+21 is its ``future`` (after the 5-word args and rets and the 6-word attrs).
+"""
+
+import llvmlite.binding as llvm
+from llvmlite import ir
+from numba import carray, njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from coopsat.sim.native.ffi import i64_at
+
+PARALLEL_MIN = 4096
+"""Fewest spacecraft in one kernel call (one run) for the kernel to split its work over XLA's
+CPU thread pool. Measured, consensus on two cores against one (M spacecraft-steps/s):
+N = 1024 49 vs 57 (slower: the hand-over costs more than the second core saves), N = 2048
+60 vs 57, N = 4096 67 vs 59, N = 10 000 70 vs 43. The torque-free tick (the plant kernel
+alone) gains nothing below about 20 000 (N = 10 000: 84 vs 88; N = 20 000: 134 vs 70)."""
+
+HEAD = 4
+"""Words of the record before the per-task words: tasks running, future, API, tasks."""
+
+_SCHEDULE, _NUM_THREADS, _FUTURE_CREATE, _FUTURE_SET_AVAILABLE = 17, 18, 19, 20
+_FRAME_API, _FRAME_CTX, _FRAME_FUTURE = 2, 3, 21
+
+
+@intrinsic
+def _call(typingctx, function, argument):
+    """``((int64 (*)(int64)) function)(argument)``: an XLA API function on its argument
+    struct, returning its error pointer (0: success)."""
+
+    def codegen(context, builder, signature, args):
+        fnty = ir.FunctionType(ir.IntType(64), [ir.IntType(64)])
+        return builder.call(builder.inttoptr(args[0], fnty.as_pointer()), [args[1]])
+
+    return types.int64(types.int64, types.int64), codegen
+
+
+@intrinsic
+def _words(typingctx):
+    """``int64*`` to 5 words on the stack: an API call's argument struct."""
+
+    def codegen(context, builder, signature, args):
+        return cgutils.alloca_once(builder, ir.IntType(64), size=5)
+
+    return types.CPointer(types.int64)(), codegen
+
+
+@intrinsic
+def _malloc(typingctx, size):
+    def codegen(context, builder, signature, args):
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.IntType(8).as_pointer(), [ir.IntType(64)]), "malloc")
+        return builder.ptrtoint(builder.call(fn, [args[0]]), ir.IntType(64))
+
+    return types.int64(types.int64), codegen
+
+
+@intrinsic
+def _free(typingctx, address):
+    def codegen(context, builder, signature, args):
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer()]), "free")
+        builder.call(fn, [builder.inttoptr(args[0], ir.IntType(8).as_pointer())])
+        return context.get_dummy_value()
+
+    return types.none(types.int64), codegen
+
+
+@intrinsic
+def _fetch_sub(typingctx, address):
+    """Atomically ``*address -= 1``; the value before."""
+
+    def codegen(context, builder, signature, args):
+        ptr = builder.inttoptr(args[0], ir.IntType(64).as_pointer())
+        return builder.atomic_rmw("sub", ptr, ir.Constant(ir.IntType(64), 1), "seq_cst")
+
+    return types.int64(types.int64), codegen
+
+
+def symbol_address(name):
+    """An intrinsic ``() -> int64``: the address of the C function ``name`` (a task), resolved
+    when the calling code is loaded; define it first with :func:`define`."""
+
+    @intrinsic
+    def address(typingctx):
+        def codegen(context, builder, signature, args):
+            fnty = ir.FunctionType(ir.VoidType(), [ir.IntType(64)])
+            return builder.ptrtoint(cgutils.get_or_insert_function(builder.module, fnty, name), ir.IntType(64))
+
+        return types.int64(), codegen
+
+    return address
+
+
+def define(name, task):
+    """Make a numba ``cfunc`` task callable by ``name`` from compiled code (its address is
+    known only in this process, so cached code finds it by name, not as a constant)."""
+    llvm.add_symbol(name, task.address)
+
+
+@intrinsic
+def _call_task(typingctx, function, argument):
+    """``((void (*)(int64)) function)(argument)``: run a task here."""
+
+    def codegen(context, builder, signature, args):
+        fnty = ir.FunctionType(ir.VoidType(), [ir.IntType(64)])
+        builder.call(builder.inttoptr(args[0], fnty.as_pointer()), [args[1]])
+        return context.get_dummy_value()
+
+    return types.none(types.int64, types.int64), codegen
+
+
+@njit(cache=True)
+def threads(frame):
+    """Threads in XLA's pool for this call (1 when it offers none)."""
+    api = carray(i64_at(frame[_FRAME_API]), 22)
+    args = carray(_words(), 5)
+    count = carray(_words(), 1)
+    count[0] = 1
+    args[0], args[1], args[2], args[3] = 32, 0, frame[_FRAME_CTX], count.ctypes.data
+    if _call(api[_NUM_THREADS], args.ctypes.data) != 0:
+        return 1
+    return max(count[0], 1)
+
+
+@njit(cache=True)
+def record(tasks, shared):
+    """A zeroed record for ``tasks`` tasks with ``shared`` words for the kernel (returned as
+    the second value, to fill before :func:`start`)."""
+    words = HEAD + tasks + shared
+    r = carray(i64_at(_malloc(8 * words)), words)
+    r[:] = 0
+    r[3] = tasks
+    return r, r[HEAD + tasks:]
+
+
+@njit(cache=True)
+def start(frame, r, task_address):
+    """Run the tasks of record ``r`` (its kernel words filled) on XLA's pool and make XLA wait
+    for them (the call's future); the handler then returns at once. False when XLA gives no
+    future: nothing started, ``r`` freed; the caller does the work itself. A task XLA
+    refuses to schedule runs here, before the handler returns."""
+    api = carray(i64_at(frame[_FRAME_API]), 22)
+    args = carray(_words(), 5)
+    args[0], args[1], args[2] = 24, 0, 0
+    if _call(api[_FUTURE_CREATE], args.ctypes.data) != 0 or args[2] == 0:
+        _free(r.ctypes.data)
+        return False
+    tasks = r[3]
+    r[0], r[1], r[2] = tasks, args[2], frame[_FRAME_API]
+    frame[_FRAME_FUTURE] = args[2]
+    for k in range(tasks):
+        r[HEAD + k] = k
+    for k in range(1, tasks):
+        data = r.ctypes.data + 8 * (HEAD + k)
+        args[0], args[1], args[2], args[3], args[4] = 40, 0, frame[_FRAME_CTX], task_address, data
+        if _call(api[_SCHEDULE], args.ctypes.data) != 0:
+            _call_task(task_address, data)
+    # The first span runs on this thread meanwhile (the pool may be this thread alone).
+    _call_task(task_address, r.ctypes.data + 8 * HEAD)
+    return True
+
+
+@njit(cache=True)
+def task_words(data):
+    """In a task given ``data``: (its index k, the number of tasks, the kernel words)."""
+    k = carray(i64_at(data), 1)[0]
+    head = carray(i64_at(data - 8 * (HEAD + k)), HEAD)
+    tasks = head[3]
+    return k, tasks, carray(i64_at(data + 8 * (tasks - k)), 64)
+
+
+@njit(cache=True)
+def finish(data):
+    """At the end of a task: the last one marks XLA's future available and frees the record."""
+    k = carray(i64_at(data), 1)[0]
+    address = data - 8 * (HEAD + k)
+    if _fetch_sub(address) == 1:
+        head = carray(i64_at(address), HEAD)
+        api = carray(i64_at(head[2]), 22)
+        args = carray(_words(), 5)
+        args[0], args[1], args[2] = 24, 0, head[1]
+        _call(api[_FUTURE_SET_AVAILABLE], args.ctypes.data)
+        _free(address)

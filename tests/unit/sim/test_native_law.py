@@ -35,10 +35,8 @@ def random_adjacency(n, degree, seed):
 
 
 def law(track=False, short_way=False):
-    return ConsensusLaw(
-        *as_arrays((0.7, 1.9, 0.4, 1.1, np.array([0.6, 0.0, 0.8, 0.0]), np.array([0.01, -0.02, 0.03])))
-        , track=track, short_way=short_way,
-    )
+    gains = as_arrays((0.7, 1.9, 0.4, 1.1, np.array([0.6, 0.0, 0.8, 0.0]), np.array([0.01, -0.02, 0.03])))
+    return ConsensusLaw(*gains, track=track, short_way=short_way)
 
 
 def measurements(n, seed):
@@ -71,7 +69,8 @@ def commands(controller, network, y, tick=7):
     def both(y):
         state = network.init({"q": y["q"], "omega": y["omega"]})
         for k in range(tick):  # earlier outboxes: the same attitudes, slowly rotating
-            _, state, _ = network.deliver(k, {"q": y["q"] * (1 + 0.01 * k), "omega": y["omega"]}, state, jax.random.PRNGKey(k))
+            earlier = {"q": y["q"] * (1 + 0.01 * k), "omega": y["omega"]}
+            _, state, _ = network.deliver(k, earlier, state, jax.random.PRNGKey(k))
         inbox, _, _ = network.deliver(tick, {"q": y["q"], "omega": y["omega"]}, state, jax.random.PRNGKey(tick))
         t = 3.7
         native = consensus_step(controller, t, y, inbox, (), None)[0]["torque_b"]
@@ -185,7 +184,8 @@ def test_a_column_outside_the_table_gives_nan_as_jnp_take(layout):
         index = index.at[(0, 5) if index.ndim == 2 else 5].set(10 * N)
         msg = {k: jnp.take(v, index, axis=-1) for k, v in table.items()}
         box = inbox._replace(msg=msg, source=(table, index))
-        return consensus_step(controller, 0.0, y, box, (), None)[0]["torque_b"], controller.step(0.0, y, box, (), None)[0]["torque_b"]
+        native = consensus_step(controller, 0.0, y, box, (), None)[0]["torque_b"]
+        return native, controller.step(0.0, y, box, (), None)[0]["torque_b"]
 
     native, xla = (np.asarray(u) for u in both(y))
     assert np.isnan(xla).any()

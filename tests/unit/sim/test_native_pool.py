@@ -28,7 +28,8 @@ def random_graph_system(seed):
         a[i, rng.choice(np.delete(np.arange(N), i), 3, replace=False)] = 1.0
     links = links_from_adjacency(a)
     assert links.src.ndim == 2
-    return replace(system, network=IdealNetwork(*as_arrays((links.src, links.dst, links.weight[None], np.zeros(1, np.int64)))))
+    network = IdealNetwork(*as_arrays((links.src, links.dst, links.weight[None], np.zeros(1, np.int64))))
+    return replace(system, network=network)
 
 
 def test_split_run_equals_the_unsplit_kernel_bit_for_bit():

@@ -28,6 +28,24 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 
+def with_xla_derivatives(native, xla):
+    """``f(*args)``: ``native(*args)`` on the CPU and ``xla(*args)`` on any other platform
+    (``jax.lax.platform_dependent``), with the derivatives of ``xla`` everywhere
+    (``jax.custom_jvp``). Every input must be an argument, none a closure over a tracer (a
+    closure broke ``jax.grad`` through the engine)."""
+    import jax
+
+    @jax.custom_jvp
+    def f(*args):
+        return jax.lax.platform_dependent(*args, cpu=native, default=xla)
+
+    @f.defjvp
+    def _jvp(primals, tangents):
+        return f(*primals), jax.jvp(xla, primals, tangents)[1]
+
+    return f
+
+
 class Kernel(NamedTuple):
     """A native smooth tick. ``applies(system, x, fields)``: whether it computes this run's
     tick (a static test on the structure, the moving state fields and the shapes);

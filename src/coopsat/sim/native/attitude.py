@@ -6,6 +6,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from coopsat.sim.native import with_xla_derivatives
+
 _registered = False
 
 
@@ -74,16 +76,6 @@ def rigid_body_tick(system, x, wrench, t_s, reference):
     """
     _register()
 
-    def xla(s, xx, torque_b, t):
-        return reference(s, xx, {"torque_b": torque_b}, t)
-
-    @jax.custom_jvp
-    def tick(s, xx, torque_b, t):
-        return jax.lax.platform_dependent(s, xx, torque_b, t, cpu=_native, default=xla)
-
-    @tick.defjvp
-    def _tick_jvp(primals, tangents):
-        return tick(*primals), jax.jvp(xla, primals, tangents)[1]
-
+    tick = with_xla_derivatives(_native, lambda s, xx, torque_b, t: reference(s, xx, {"torque_b": torque_b}, t))
     torque_b = jnp.broadcast_to(wrench.get("torque_b", jnp.zeros((), x.omega_b.dtype)), x.omega_b.shape)
     return tick(system, x, torque_b, t_s)

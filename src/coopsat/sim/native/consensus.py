@@ -89,7 +89,8 @@ def _add_terms(mq, mw, off, q, w, r0, weight, base, m, alpha, beta, short_way, a
         r = np.uint64(r0) + k
         j = np.uint64(off) + k
         a = weight[np.uint64(base) + k]
-        e1, e2, e3 = _error_vector(mq[0, j], mq[1, j], mq[2, j], mq[3, j], q[0, r], q[1, r], q[2, r], q[3, r], short_way)
+        e1, e2, e3 = _error_vector(mq[0, j], mq[1, j], mq[2, j], mq[3, j],
+                                   q[0, r], q[1, r], q[2, r], q[3, r], short_way)
         acc[0, k] += a * (alpha * e1 + beta * (w[0, r] - mw[0, j]))
         acc[1, k] += a * (alpha * e2 + beta * (w[1, r] - mw[1, j]))
         acc[2, k] += a * (alpha * e3 + beta * (w[2, r] - mw[2, j]))
@@ -176,16 +177,15 @@ def _task(data):
     """One span of receivers (whole blocks) on XLA's pool (:mod:`coopsat.sim.native.pool`)."""
     k, tasks, words = pool.task_words(data)
     t, n, links = words[8], words[9], words[10]
-    per = -(-n // (tasks * BLOCK)) * BLOCK
+    lo, hi = pool.span(k, tasks, n, BLOCK)
     _padded(carray(f64_at(words[0]), (4, t)), carray(f64_at(words[1]), (3, t)), carray(f64_at(words[2]), (4, n)),
             carray(f64_at(words[3]), (3, n)), carray(i32_at(words[4]), links), carray(f64_at(words[5]), links),
             carray(f64_at(words[6]), N_PARAMS), words[11] != 0, words[12] != 0, carray(f64_at(words[7]), (3, n)),
-            min(n, k * per), min(n, (k + 1) * per))
+            lo, hi)
     pool.finish(data)
 
 
-pool.define(TASK, _task)
-_task_address = pool.symbol_address(TASK)
+_task_address = pool.register_task(TASK, _task)
 
 
 @cfunc(HANDLER_SIGNATURE, nopython=True, error_model="numpy", cache=True)

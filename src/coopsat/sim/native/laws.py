@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from coopsat.control.consensus import reference_attitude
+from coopsat.sim.native import with_xla_derivatives
 from coopsat.sim.native.consensus import N_PARAMS, TARGET, handler
 
 jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(handler.ctypes), platform="cpu")
@@ -58,16 +59,6 @@ def consensus_step(controller, t, y, inbox, state, key):
     an initial state or a weight is the JAX law's.
     """
 
-    def xla(law, tt, yy, box):
-        return law.torque(tt, yy, box)
-
-    @jax.custom_jvp
-    def torque(law, tt, yy, box):
-        return jax.lax.platform_dependent(law, tt, yy, box, cpu=_native, default=xla)
-
-    @torque.defjvp
-    def _torque_jvp(primals, tangents):
-        return torque(*primals), jax.jvp(xla, primals, tangents)[1]
-
+    torque = with_xla_derivatives(_native, lambda law, tt, yy, box: law.torque(tt, yy, box))
     u = torque(controller, t, {"q": y["q"], "omega": y["omega"]}, inbox)
     return controller.outputs(t, u, state)

@@ -72,7 +72,8 @@ def _words(typingctx):
 @intrinsic
 def _malloc(typingctx, size):
     def codegen(context, builder, signature, args):
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.IntType(8).as_pointer(), [ir.IntType(64)]), "malloc")
+        fnty = ir.FunctionType(ir.IntType(8).as_pointer(), [ir.IntType(64)])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "malloc")
         return builder.ptrtoint(builder.call(fn, [args[0]]), ir.IntType(64))
 
     return types.int64(types.int64), codegen
@@ -81,7 +82,8 @@ def _malloc(typingctx, size):
 @intrinsic
 def _free(typingctx, address):
     def codegen(context, builder, signature, args):
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer()]), "free")
+        fnty = ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer()])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "free")
         builder.call(fn, [builder.inttoptr(args[0], ir.IntType(8).as_pointer())])
         return context.get_dummy_value()
 
@@ -99,9 +101,12 @@ def _fetch_sub(typingctx, address):
     return types.int64(types.int64), codegen
 
 
-def symbol_address(name):
-    """An intrinsic ``() -> int64``: the address of the C function ``name`` (a task), resolved
-    when the calling code is loaded; define it first with :func:`define`."""
+def register_task(name, task):
+    """Make the numba ``cfunc`` ``task`` callable from compiled code by the C name ``name``, and
+    return an intrinsic ``() -> int64`` giving its address there. The address is known only
+    in this process, so cached code finds the task by name when it is loaded, not as a
+    constant."""
+    llvm.add_symbol(name, task.address)
 
     @intrinsic
     def address(typingctx):
@@ -114,10 +119,12 @@ def symbol_address(name):
     return address
 
 
-def define(name, task):
-    """Make a numba ``cfunc`` task callable by ``name`` from compiled code (its address is
-    known only in this process, so cached code finds it by name, not as a constant)."""
-    llvm.add_symbol(name, task.address)
+@njit(cache=True)
+def span(k, tasks, m, align):
+    """Spacecraft ``lo`` to ``hi`` − 1 of task ``k`` of ``tasks`` over ``m``, in whole
+    multiples of ``align`` (the last takes the rest)."""
+    per = -(-m // (tasks * align)) * align
+    return min(m, k * per), min(m, (k + 1) * per)
 
 
 @intrinsic

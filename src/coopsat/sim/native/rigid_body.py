@@ -88,7 +88,9 @@ def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out, lo, hi):
             i0, i1, i2 = inertia[0, r], inertia[1, r], inertia[2, r]
             j0, j1, j2 = inv[0, r], inv[1, r], inv[2, r]
             g0, g1, g2 = hw[0, r], hw[1, r], hw[2, r]
-            a0, a1, a2, a3, a4, a5, a6 = _deriv(q0, q1, q2, q3, w0, w1, w2, t0, t1, t2, i0, i1, i2, j0, j1, j2, g0, g1, g2)
+            a0, a1, a2, a3, a4, a5, a6 = _deriv(
+                q0, q1, q2, q3, w0, w1, w2, t0, t1, t2, i0, i1, i2, j0, j1, j2, g0, g1, g2,
+            )
             b0, b1, b2, b3, b4, b5, b6 = _deriv(
                 q0 + hh * a0, q1 + hh * a1, q2 + hh * a2, q3 + hh * a3, w0 + hh * a4, w1 + hh * a5, w2 + hh * a6,
                 t0, t1, t2, i0, i1, i2, j0, j1, j2, g0, g1, g2,
@@ -143,14 +145,12 @@ def _task(data):
     rows4 = lambda i: carray(f64_at(words[i]), (4, m))  # noqa: E731
     rows3 = lambda i: carray(f64_at(words[i]), (3, m))  # noqa: E731
     h = carray(f64_at(words.ctypes.data + 8 * 10), 1)[0]
-    per = -(-m // tasks)
-    _steps(rows4(0), rows3(1), rows3(2), rows3(3), rows3(4), rows3(5), h, words[9], rows4(6), rows3(7),
-           min(m, k * per), min(m, (k + 1) * per))
+    lo, hi = pool.span(k, tasks, m, BLOCK)
+    _steps(rows4(0), rows3(1), rows3(2), rows3(3), rows3(4), rows3(5), h, words[9], rows4(6), rows3(7), lo, hi)
     pool.finish(data)
 
 
-pool.define(TASK, _task)
-_task_address = pool.symbol_address(TASK)
+_task_address = pool.register_task(TASK, _task)
 
 
 @cfunc(HANDLER_SIGNATURE, nopython=True, error_model="numpy", cache=True)

@@ -10,8 +10,8 @@ cannot be cached).
 
 The tasks share a record in memory from ``malloc``: word 0 counts the tasks still running,
 word 1 holds the future, word 2 XLA's API, word 3 the number of tasks; then one word per task
-holding its index k (task k's data is the address of that word); then the kernel's words
-(its buffers' addresses and sizes). The first span runs on the calling thread while the
+holding its index k (task k's data is the address of that word); one claim flag per span;
+then the kernel's words (its buffers' addresses and sizes). The first span runs on the calling thread while the
 others run on the pool; the last task to finish frees the record.
 
 numba caches each compiled function with the code of everything it calls, and checks only the
@@ -25,9 +25,11 @@ the internal API, then the functions in order): 17 ``ThreadPool_Schedule``, 18
 21 is its ``future`` (after the 5-word args and rets and the 6-word attrs).
 """
 
+import ctypes
+
 import llvmlite.binding as llvm
 from llvmlite import ir
-from numba import carray, njit, types
+from numba import carray, cfunc, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
@@ -101,6 +103,46 @@ def _fetch_sub(typingctx, address):
     return types.int64(types.int64), codegen
 
 
+@intrinsic
+def _claim(typingctx, address):
+    """Atomically set ``*address`` from 0 to 1; whether this call did."""
+
+    def codegen(context, builder, signature, args):
+        ptr = builder.inttoptr(args[0], ir.IntType(64).as_pointer())
+        zero, one = ir.Constant(ir.IntType(64), 0), ir.Constant(ir.IntType(64), 1)
+        return builder.extract_value(builder.cmpxchg(ptr, zero, one, "seq_cst", "seq_cst"), 1)
+
+    return types.boolean(types.int64), codegen
+
+
+@cfunc(types.int32(), nopython=True, cache=True)
+def _no_cpu():
+    return 0
+
+
+def _sched_getcpu_address():
+    """glibc's ``sched_getcpu``, or a stand-in that says core 0 where the C library has none."""
+    try:
+        return ctypes.cast(ctypes.CDLL(None).sched_getcpu, ctypes.c_void_p).value
+    except (AttributeError, OSError):
+        return _no_cpu.address
+
+
+llvm.add_symbol("coopsat_sched_getcpu", _sched_getcpu_address())
+
+
+@intrinsic
+def _cpu(typingctx):
+    """``sched_getcpu()``: the core this thread runs on now."""
+
+    def codegen(context, builder, signature, args):
+        fnty = ir.FunctionType(ir.IntType(32), [])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "coopsat_sched_getcpu")
+        return builder.sext(builder.call(fn, []), ir.IntType(64))
+
+    return types.int64(), codegen
+
+
 def register_task(name, task):
     """Make the numba ``cfunc`` ``task`` callable from compiled code by the C name ``name``, and
     return an intrinsic ``() -> int64`` giving its address there. The address is known only
@@ -156,11 +198,11 @@ def threads(frame):
 def record(tasks, shared):
     """A zeroed record for ``tasks`` tasks with ``shared`` words for the kernel (returned as
     the second value, to fill before :func:`start`)."""
-    words = HEAD + tasks + shared
+    words = HEAD + 2 * tasks + shared
     r = carray(i64_at(_malloc(8 * words)), words)
     r[:] = 0
     r[3] = tasks
-    return r, r[HEAD + tasks:]
+    return r, r[HEAD + 2 * tasks:]
 
 
 @njit(cache=True)
@@ -192,11 +234,24 @@ def start(frame, r, task_address):
 
 @njit(cache=True)
 def task_words(data):
-    """In a task given ``data``: (its index k, the number of tasks, the kernel words)."""
+    """In a task given ``data``: (the span it does, the number of tasks, the kernel words).
+
+    Spans are claimed, not assigned: each task takes the span of the core it runs on
+    (``sched_getcpu() mod tasks``) when no other task has, else the first one left, so a
+    span's spacecraft tend to stay in one core's cache from tick to tick although the
+    thread that goes on with XLA's work changes from call to call. Measured against spans
+    in task order: consensus N = 5000 54 → 60 M spacecraft-steps/s; N = 10 000 and the
+    torque-free tick unchanged. Each of the T tasks claims exactly one of the T spans."""
     k = carray(i64_at(data), 1)[0]
-    head = carray(i64_at(data - 8 * (HEAD + k)), HEAD)
-    tasks = head[3]
-    return k, tasks, carray(i64_at(data + 8 * (tasks - k)), 64)
+    head = data - 8 * (HEAD + k)
+    tasks = carray(i64_at(head), HEAD)[3]
+    claims = head + 8 * (HEAD + tasks)
+    span = _cpu() % tasks
+    if span < 0 or not _claim(claims + 8 * span):
+        span = 0
+        while not _claim(claims + 8 * span):
+            span += 1
+    return span, tasks, carray(i64_at(claims + 8 * tasks), 64)
 
 
 @njit(cache=True)

@@ -28,6 +28,9 @@ def _native(system, x, torque_b, t_s):
     shape = x.omega_b.shape
     m = int(np.prod(shape[1:]))
     sub = np.int64(system.structure.substeps)
+    # The cores the kernel may split a large run over: XLA's CPU devices (a campaign's
+    # worker has one, and its neighbour the other core).
+    cores = np.int64(len(jax.devices("cpu")))
 
     def rows(a):
         return jnp.broadcast_to(a, a.shape[:1] + shape[1:]).reshape(a.shape[0], m)
@@ -43,7 +46,7 @@ def _native(system, x, torque_b, t_s):
     )
     p = system.plant
     q, w = call(rows(x.q_bi), rows(x.omega_b), rows(x.h_wheels_b), rows(torque_b), rows(p.inertia_kgm2),
-                rows(p.inertia_inv), system.dt_s / sub, sub)
+                rows(p.inertia_inv), system.dt_s / sub, sub, cores)
     return x._replace(q_bi=q.reshape(x.q_bi.shape), omega_b=w.reshape(shape))
 
 

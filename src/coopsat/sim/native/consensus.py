@@ -193,8 +193,8 @@ def handler(frame):
     """XLA FFI handler of :data:`TARGET`. Arguments: the message table q (…, 4, T) and
     ω (…, 3, T); the receivers' own q (…, 4, n) and ω (…, 3, n); per link (…, 1, E) the
     table column ``index`` (int32), the receiver ``dst`` (int32) and the weight; the
-    per-run scalars (…, 1, :data:`N_PARAMS`); flags (…, 1, 3) int64: padded table, short way,
-    tracking. Result: u (…, 3, n) N·m. Leading dimensions (…) are vmap's, done in turn. One
+    per-run scalars (…, 1, :data:`N_PARAMS`); flags (…, 1, 4) int64: padded table, short way,
+    tracking, cores it may use. Result: u (…, 3, n) N·m. Leading dimensions (…) are vmap's, done in turn. One
     run of at least :data:`PARALLEL_MIN` spacecraft over a padded table is cut into spans of
     receivers run on XLA's thread pool (the handler returns before they finish; XLA waits)."""
     if answer_metadata(frame):
@@ -204,9 +204,9 @@ def handler(frame):
     index_at, _, links = buffer(frame, 4, False)
     addresses = (tab_at, buffer(frame, 1, False)[0], q_at, buffer(frame, 3, False)[0], index_at,
                  buffer(frame, 6, False)[0], buffer(frame, 7, False)[0], buffer(frame, 0, True)[0])
-    flags = carray(i64_at(buffer(frame, 8, False)[0]), (lead, 3))
+    flags = carray(i64_at(buffer(frame, 8, False)[0]), (lead, 4))
     if lead == 1 and n >= PARALLEL_MIN and flags[0, 0] != 0:
-        tasks = min(pool.threads(frame), n // (PARALLEL_MIN // 2))
+        tasks = min(pool.threads(frame), flags[0, 3], n // (PARALLEL_MIN // 2))
         if tasks > 1:
             r, words = pool.record(tasks, _WORDS)
             for i in range(8):

@@ -23,7 +23,9 @@ def _native(law, t, y, inbox):
     params = jnp.concatenate([
         jnp.stack([law.alpha + zero, law.beta + zero, law.k_p + zero, law.k_d + zero]), q_ref, law.omega_ref_b + zero,
     ]).reshape(1, N_PARAMS)
-    flags = np.array([[padded, law.short_way, law.track]], np.int64)
+    # The last flag: the cores a large run may be split over (XLA's CPU devices; one in a
+    # campaign's worker).
+    flags = np.array([[padded, law.short_way, law.track, len(jax.devices("cpu"))]], np.int64)
     row = lambda a: a.reshape(1, -1)  # noqa: E731
     call = jax.ffi.ffi_call(TARGET, jax.ShapeDtypeStruct(y["omega"].shape, y["omega"].dtype),
                             vmap_method="broadcast_all")

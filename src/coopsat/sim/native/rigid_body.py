@@ -156,7 +156,8 @@ _task_address = pool.register_task(TASK, _task)
 @cfunc(HANDLER_SIGNATURE, nopython=True, error_model="numpy", cache=True)
 def handler(frame):
     """XLA FFI handler of :data:`TARGET`. Arguments q (…, 4, M), ω, h_w, τ, I, I⁻¹ (…, 3, M),
-    the sub-step h (…) s and the number of sub-steps (…) int64; results q (…, 4, M), ω (…, 3,
+    the sub-step h (…) s, the number of sub-steps (…) int64 and the cores it may use (…)
+    int64; results q (…, 4, M), ω (…, 3,
     M). The leading dimensions (…, L in all) are vmap's: each of the L problems is done in
     turn. One problem of at least :data:`PARALLEL_MIN` spacecraft is cut into spans run on
     XLA's thread pool (the handler returns before they finish; XLA waits)."""
@@ -168,8 +169,9 @@ def handler(frame):
                  buffer(frame, 1, True)[0])
     h = carray(f64_at(buffer(frame, 6, False)[0]), lead)
     sub = carray(i64_at(buffer(frame, 7, False)[0]), lead)
+    cores = carray(i64_at(buffer(frame, 8, False)[0]), lead)
     if lead == 1 and m >= PARALLEL_MIN:
-        tasks = min(pool.threads(frame), m // (PARALLEL_MIN // 2))
+        tasks = min(pool.threads(frame), cores[0], m // (PARALLEL_MIN // 2))
         if tasks > 1:
             r, words = pool.record(tasks, _WORDS)
             for i in range(8):

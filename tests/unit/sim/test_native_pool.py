@@ -60,3 +60,27 @@ def test_batch_of_large_runs_equals_each_run_alone():
         alone = simulate(runs[k], 2, 0.4).samples
         for key in KEYS:
             np.testing.assert_array_equal(np.asarray(alone[key]), np.asarray(batch[key])[k], err_msg=key)
+
+
+def test_two_large_runs_at_once_from_two_threads():
+    # Both runs' kernels schedule on the one XLA pool at the same time; a handler never waits
+    # for its tasks, so neither can starve the other (a deadlock would hang here), and each
+    # result is what it is alone.
+    import threading
+
+    runs = [bench_system(N, "consensus-sync", record_ticks=40, seed=k) for k in range(2)]
+    alone = [simulate(r, 2, 0.4).samples for r in runs]
+    together = [None, None]
+
+    def go(k):
+        together[k] = simulate(runs[k], 2, 0.4).samples
+
+    threads = [threading.Thread(target=go, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=120)
+    for k in range(2):
+        assert together[k] is not None, "a run did not finish"
+        for key in KEYS:
+            np.testing.assert_array_equal(np.asarray(together[k][key]), np.asarray(alone[k][key]), err_msg=key)

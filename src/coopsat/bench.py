@@ -43,8 +43,8 @@ def _network(links, delayed):
 def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=False, native=True):
     """A random formation of ``n`` spacecraft for the benchmark (no orbit): free, or law (3)
     on an undirected ring with an ideal torque actuator, over an ideal network or one that
-    delays every message by 2 s. ``native``: whether the plant may use a native CPU kernel
-    (:mod:`coopsat.sim.native`)."""
+    delays every message by 2 s. ``native``: whether native CPU kernels may run the plant and the
+    law (:mod:`coopsat.sim.native`)."""
     import jax
 
     from coopsat.actuators.ideal import IdealTorque

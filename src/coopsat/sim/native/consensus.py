@@ -28,7 +28,7 @@ from coopsat.sim.native import pool
 from coopsat.sim.native.pool import PARALLEL_MIN
 
 from coopsat.sim.native.ffi import (
-    HANDLER_SIGNATURE, answer_metadata, buffer, f64_at, i32_at, i64_at, stack_doubles, vectorise_many_rows,
+    HANDLER_SIGNATURE, answer_metadata, buffer, f64_at, i32_at, i64_at, stack_array, vectorise_many_rows,
 )
 
 vectorise_many_rows()
@@ -74,7 +74,7 @@ BLOCK = 128
 """Receivers per block of the padded-table loop (its scratch lives on the stack)."""
 
 
-_stack_rows = stack_doubles(10 * BLOCK)
+_stack_rows = stack_array(types.float64, 10 * BLOCK)
 """10 rows of :data:`BLOCK` doubles of stack scratch: messages (7) and sums (3)."""
 
 
@@ -175,7 +175,7 @@ params and u; T, n, E; short way, tracking."""
 @cfunc(types.void(types.int64), nopython=True, error_model="numpy", cache=True)
 def _task(data):
     """One span of receivers (whole blocks) on XLA's pool (:mod:`coopsat.sim.native.pool`)."""
-    k, tasks, words = pool.task_words(data)
+    k, tasks, words = pool.task_words(data, _WORDS)
     t, n, links = words[8], words[9], words[10]
     lo, hi = pool.span(k, tasks, n, BLOCK)
     _padded(carray(f64_at(words[0]), (4, t)), carray(f64_at(words[1]), (3, t)), carray(f64_at(words[2]), (4, n)),

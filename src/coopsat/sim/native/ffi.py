@@ -53,19 +53,19 @@ i32_at = _pointer_cast(types.int32)
 """``(int32_t*) address``."""
 
 
-def stack_doubles(size):
-    """An intrinsic ``() -> double*`` to ``size`` doubles on the stack (an ``alloca`` in the
-    entry block of the function it is inlined into): scratch that LLVM knows no argument
-    aliases, so a loop that loads from arguments and stores there (or the reverse) is
-    vectorised with no run-time overlap check, even when a kernel's output buffer is its
-    input (XLA's in-place aliasing)."""
+def stack_array(ty, size):
+    """An intrinsic ``() -> ty*`` to ``size`` values of numba type ``ty`` on the stack (an
+    ``alloca`` in the entry block of the function it is inlined into): scratch that LLVM
+    knows no argument aliases, so a loop that loads from arguments and stores there (or the
+    reverse) is vectorised with no run-time overlap check, even when a kernel's output
+    buffer is its input (XLA's in-place aliasing); also an API call's argument struct."""
 
     @intrinsic
     def stack(typingctx):
         def codegen(context, builder, signature, args):
-            return cgutils.alloca_once(builder, context.get_value_type(types.float64), size=size)
+            return cgutils.alloca_once(builder, context.get_value_type(ty), size=size)
 
-        return types.CPointer(types.float64)(), codegen
+        return types.CPointer(ty)(), codegen
 
     return stack
 

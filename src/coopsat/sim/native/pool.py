@@ -33,7 +33,7 @@ from numba import carray, cfunc, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from coopsat.sim.native.ffi import i64_at
+from coopsat.sim.native.ffi import i64_at, stack_array
 
 PARALLEL_MIN = 4096
 """Fewest spacecraft in one kernel call (one run) for the kernel to split its work over XLA's
@@ -49,26 +49,29 @@ _SCHEDULE, _NUM_THREADS, _FUTURE_CREATE, _FUTURE_SET_AVAILABLE = 17, 18, 19, 20
 _FRAME_API, _FRAME_CTX, _FRAME_FUTURE = 2, 3, 21
 
 
-@intrinsic
-def _call(typingctx, function, argument):
-    """``((int64 (*)(int64)) function)(argument)``: an XLA API function on its argument
-    struct, returning its error pointer (0: success)."""
+def _pointer_call(returns):
+    """An intrinsic ``(function, argument)`` calling the C function at address ``function``
+    on one 64-bit ``argument``; ``returns``: True for an ``int64`` result, False for none."""
+    result = ir.IntType(64) if returns else ir.VoidType()
 
-    def codegen(context, builder, signature, args):
-        fnty = ir.FunctionType(ir.IntType(64), [ir.IntType(64)])
-        return builder.call(builder.inttoptr(args[0], fnty.as_pointer()), [args[1]])
+    @intrinsic
+    def call(typingctx, function, argument):
+        def codegen(context, builder, signature, args):
+            fnty = ir.FunctionType(result, [ir.IntType(64)])
+            value = builder.call(builder.inttoptr(args[0], fnty.as_pointer()), [args[1]])
+            return value if returns else context.get_dummy_value()
 
-    return types.int64(types.int64, types.int64), codegen
+        return (types.int64 if returns else types.none)(types.int64, types.int64), codegen
+
+    return call
 
 
-@intrinsic
-def _words(typingctx):
-    """``int64*`` to 5 words on the stack: an API call's argument struct."""
-
-    def codegen(context, builder, signature, args):
-        return cgutils.alloca_once(builder, ir.IntType(64), size=5)
-
-    return types.CPointer(types.int64)(), codegen
+_call = _pointer_call(True)
+"""An XLA API function on its argument struct; its error pointer (0: success)."""
+_call_task = _pointer_call(False)
+"""Run a task (``void (*)(void*)``) here."""
+_words = stack_array(types.int64, 5)
+"""``int64*`` to 5 words on the stack: an API call's argument struct."""
 
 
 @intrinsic
@@ -169,18 +172,6 @@ def span(k, tasks, m, align):
     return min(m, k * per), min(m, (k + 1) * per)
 
 
-@intrinsic
-def _call_task(typingctx, function, argument):
-    """``((void (*)(int64)) function)(argument)``: run a task here."""
-
-    def codegen(context, builder, signature, args):
-        fnty = ir.FunctionType(ir.VoidType(), [ir.IntType(64)])
-        builder.call(builder.inttoptr(args[0], fnty.as_pointer()), [args[1]])
-        return context.get_dummy_value()
-
-    return types.none(types.int64, types.int64), codegen
-
-
 @njit(cache=True)
 def threads(frame):
     """Threads in XLA's pool for this call (1 when it offers none)."""
@@ -233,8 +224,9 @@ def start(frame, r, task_address):
 
 
 @njit(cache=True)
-def task_words(data):
-    """In a task given ``data``: (the span it does, the number of tasks, the kernel words).
+def task_words(data, shared):
+    """In a task given ``data``: (the span it does, the number of tasks, the ``shared`` kernel
+    words).
 
     Spans are claimed, not assigned: each task takes the span of the core it runs on
     (``sched_getcpu() mod tasks``) when no other task has, else the first one left, so a
@@ -251,7 +243,7 @@ def task_words(data):
         span = 0
         while not _claim(claims + 8 * span):
             span += 1
-    return span, tasks, carray(i64_at(claims + 8 * tasks), 64)
+    return span, tasks, carray(i64_at(claims + 8 * tasks), shared)
 
 
 @njit(cache=True)

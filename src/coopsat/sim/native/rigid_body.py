@@ -24,7 +24,7 @@ from coopsat.sim.native import pool
 from coopsat.sim.native.pool import PARALLEL_MIN
 
 from coopsat.sim.native.ffi import (
-    HANDLER_SIGNATURE, answer_metadata, buffer, f64_at, i64_at, stack_doubles, vectorise_many_rows,
+    HANDLER_SIGNATURE, answer_metadata, buffer, f64_at, i64_at, stack_array, vectorise_many_rows,
 )
 
 vectorise_many_rows()
@@ -59,7 +59,7 @@ def _deriv(q0, q1, q2, q3, w0, w1, w2, t0, t1, t2, i0, i1, i2, j0, j1, j2, hw0, 
 BLOCK = 128
 """Spacecraft per block: each block's new state is built in stack scratch, then stored."""
 
-_stack_rows = stack_doubles(7 * BLOCK)
+_stack_rows = stack_array(types.float64, 7 * BLOCK)
 
 
 @njit(fastmath=False, error_model="numpy", cache=True)
@@ -140,7 +140,7 @@ sub-steps; h (float64 bits)."""
 @cfunc(types.void(types.int64), nopython=True, error_model="numpy", cache=True)
 def _task(data):
     """One span of the spacecraft on XLA's pool (:mod:`coopsat.sim.native.pool`)."""
-    k, tasks, words = pool.task_words(data)
+    k, tasks, words = pool.task_words(data, _WORDS)
     m = words[8]
     rows4 = lambda i: carray(f64_at(words[i]), (4, m))  # noqa: E731
     rows3 = lambda i: carray(f64_at(words[i]), (3, m))  # noqa: E731

@@ -47,14 +47,17 @@ def with_xla_derivatives(native, xla):
 
 
 class Kernel(NamedTuple):
-    """A native smooth tick. ``applies(system, x, fields)``: whether it computes this run's
-    tick (a static test on the structure, the moving state fields and the shapes);
-    ``tick(system, x, wrench, t_s, reference)``: the tick from time ``t_s``, with
+    """A plant's native ticks. ``applies(system, x, fields)``: whether it computes this run's
+    ticks (a static test on the structure, the moving state fields and the shapes);
+    ``tick(system, x, wrench, t_s, reference)``: the smooth tick from time ``t_s``, with
     ``reference(system, x, wrench, t_s)`` the engine's XLA code for it (the fallback and the
-    derivative)."""
+    derivative); ``segments(system, x, wrenches, starts_s, lengths_s, t_s, reference)``: the
+    piecewise tick of :func:`piecewise_tick`, ``reference`` taking the same arguments but
+    ``system``'s place first."""
 
     applies: Callable
     tick: Callable
+    segments: Callable
 
 
 def _rigid_body_applies(system, x, fields):
@@ -72,7 +75,13 @@ def _rigid_body_tick(system, x, wrench, t_s, reference):
     return rigid_body_tick(system, x, wrench, t_s, reference)
 
 
-KERNELS = (Kernel(_rigid_body_applies, _rigid_body_tick),)
+def _rigid_body_segments(system, x, wrenches, starts_s, lengths_s, t_s, reference):
+    from coopsat.sim.native.attitude import rigid_body_segments
+
+    return rigid_body_segments(system, x, wrenches, starts_s, lengths_s, t_s, reference)
+
+
+KERNELS = (Kernel(_rigid_body_applies, _rigid_body_tick, _rigid_body_segments),)
 
 
 class LawKernel(NamedTuple):
@@ -123,6 +132,21 @@ def smooth_tick(system, x, wrench, t_s, fields, reference):
             if kernel.applies(system, x, fields):
                 return kernel.tick(system, x, wrench, t_s, reference)
     return reference(system, x, wrench, t_s)
+
+
+def piecewise_tick(system, x, wrenches, starts_s, lengths_s, t_s, fields, reference):
+    """One tick of the plant from time ``t_s`` as S consecutive segments, each under its own
+    held wrench and each in RK4 sub-steps, then ``q`` renormalised: a pulsed actuator's tick
+    cut at its switch instants. By the first kernel of :data:`KERNELS` that applies, else by
+    ``reference(system, x, wrenches, starts_s, lengths_s, t_s)``.
+
+    ``wrenches``: channel -> (S, 3, …); ``starts_s``, ``lengths_s`` (S, …): each segment's
+    start from ``t_s`` and length, s, per spacecraft (a zero length is a no-op step)."""
+    if system.structure.native:
+        for kernel in KERNELS:
+            if kernel.applies(system, x, fields):
+                return kernel.segments(system, x, wrenches, starts_s, lengths_s, t_s, reference)
+    return reference(system, x, wrenches, starts_s, lengths_s, t_s)
 
 
 def control_step(system, controller, t, y, inbox, state, key):

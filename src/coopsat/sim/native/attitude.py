@@ -1,4 +1,5 @@
-"""The rigid-body kernel (:mod:`coopsat.sim.native.rigid_body`) as a JAX function."""
+"""The rigid-body kernels (:mod:`coopsat.sim.native.rigid_body`) as JAX functions: the smooth
+tick and the piecewise tick of a pulsed actuator."""
 
 from coopsat import _jax  # noqa: F401
 
@@ -14,10 +15,16 @@ _registered = False
 def _register():
     global _registered
     if not _registered:
-        from coopsat.sim.native.rigid_body import TARGET, handler
+        from coopsat.sim.native.rigid_body import SEGMENTS_TARGET, TARGET, handler, segments_handler
 
         jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(handler.ctypes), platform="cpu")
+        jax.ffi.register_ffi_target(SEGMENTS_TARGET, jax.ffi.pycapsule(segments_handler.ctypes), platform="cpu")
         _registered = True
+
+
+def _rows(a, shape):
+    """``a`` broadcast to the state's trailing shape and reshaped (free) to rows (k, M)."""
+    return jnp.broadcast_to(a, a.shape[:1] + shape[1:]).reshape(a.shape[0], int(np.prod(shape[1:])))
 
 
 def _native(system, x, torque_b, t_s):
@@ -32,9 +39,7 @@ def _native(system, x, torque_b, t_s):
     # worker has one, and its neighbour the other core).
     cores = np.int64(len(jax.devices("cpu")))
 
-    def rows(a):
-        return jnp.broadcast_to(a, a.shape[:1] + shape[1:]).reshape(a.shape[0], m)
-
+    rows = lambda a: _rows(a, shape)  # noqa: E731
     call = jax.ffi.ffi_call(
         TARGET, (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype)),
         vmap_method="broadcast_all",
@@ -82,3 +87,56 @@ def rigid_body_tick(system, x, wrench, t_s, reference):
     tick = with_xla_derivatives(_native, lambda s, xx, torque_b, t: reference(s, xx, {"torque_b": torque_b}, t))
     torque_b = jnp.broadcast_to(wrench.get("torque_b", jnp.zeros((), x.omega_b.dtype)), x.omega_b.shape)
     return tick(system, x, torque_b, t_s)
+
+
+def _native_segments(system, x, torque_b, starts_s, lengths_s, t_s):
+    """The piecewise tick by the FFI kernel: τ (S, 3, …) as rows (3·S, M), the sub-step lengths
+    (S, …) as rows (S, M)."""
+    from coopsat.sim.native.rigid_body import SEGMENTS_TARGET
+
+    shape = x.omega_b.shape
+    m = int(np.prod(shape[1:]))
+    n_seg, sub = lengths_s.shape[0], system.structure.substeps
+    call = jax.ffi.ffi_call(
+        SEGMENTS_TARGET, (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype)),
+        vmap_method="broadcast_all",
+        input_output_aliases={0: 0, 1: 1} if x.q_bi.ndim == 2 else {},  # as the smooth tick (_native)
+    )
+    p = system.plant
+    torque_rows = jnp.broadcast_to(torque_b, (n_seg, *shape)).reshape(3 * n_seg, m)
+    q, w = call(_rows(x.q_bi, shape), _rows(x.omega_b, shape), _rows(x.h_wheels_b, shape), torque_rows,
+                _rows(p.inertia_kgm2, shape), _rows(p.inertia_inv, shape), _rows(lengths_s / sub, (n_seg, *shape[1:])),
+                np.int64(sub), np.int64(n_seg))
+    return x._replace(q_bi=q.reshape(x.q_bi.shape), omega_b=w.reshape(shape))
+
+
+def rigid_body_segments(system, x, wrenches, starts_s, lengths_s, t_s, reference):
+    """A tick of free rigid bodies as consecutive segments, each under its own held torque
+    (a pulsed actuator's tick cut at its switch instants): by the native kernel on the CPU,
+    by ``reference`` elsewhere and for derivatives.
+
+    Parameters
+    ----------
+    system, x
+        As :func:`rigid_body_tick`.
+    wrenches : dict
+        ``torque_b`` (S, 3, …) N·m: segment s's torque; or nothing (no torque).
+    starts_s, lengths_s : array (S, …)
+        Each segment's start (from the tick's start) and length, s, per spacecraft.
+    t_s : scalar
+        Time at the start of the tick, s.
+    reference : callable
+        ``reference(system, x, wrenches, starts_s, lengths_s, t_s) -> PlantState``.
+
+    Returns
+    -------
+    PlantState
+    """
+    _register()
+
+    tick = with_xla_derivatives(
+        _native_segments, lambda s, xx, tq, a, ln, t: reference(s, xx, {"torque_b": tq}, a, ln, t),
+    )
+    torque_b = wrenches.get("torque_b", jnp.zeros((), x.omega_b.dtype))
+    torque_b = jnp.broadcast_to(torque_b, (lengths_s.shape[0], *x.omega_b.shape))
+    return tick(system, x, torque_b, starts_s, lengths_s, t_s)

@@ -19,6 +19,7 @@ same in the vector body and the scalar remainder), so a run in a batch equals th
 
 import numpy as np
 from numba import carray, cfunc, njit, types
+from numba.extending import overload
 
 from coopsat.sim.native import pool
 from coopsat.sim.native.pool import PARALLEL_MIN
@@ -35,7 +36,21 @@ TARGET = "coopsat_rigid_body_rk4"
 TASK = "coopsat_rigid_body_rk4_task"
 """C name of the kernel's pool task."""
 
+SEGMENTS_TARGET = "coopsat_rigid_body_rk4_segments"
+"""Name of the XLA FFI target of the piecewise tick (:func:`segments_handler`)."""
 
+
+def _lane(h, r):
+    """Step length of spacecraft ``r``: ``h`` itself (one for every spacecraft) or ``h[r]``
+    (a row, one each: the segments of a pulsed tick end at each spacecraft's own switch
+    instants)."""
+
+
+@overload(_lane, inline="always")
+def _lane_overload(h, r):
+    if isinstance(h, types.Array):
+        return lambda h, r: h[r]
+    return lambda h, r: h
 
 
 @njit(fastmath=False, error_model="numpy", cache=True, inline="always")
@@ -101,8 +116,8 @@ def _step_one(q, w, hw, tq, inertia, inv, r, h, last):
 
 @njit(fastmath=False, error_model="numpy", cache=True)
 def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out, lo, hi):
-    """One RK4 step of length ``h`` (s) for spacecraft ``lo`` to ``hi`` − 1 of component-major
-    rows: q (4, M), ω (3, M), h_w, τ, I, I⁻¹ (3, M); writes q_out (4, M), w_out (3, M), with q
+    """One RK4 step of length ``h`` (s; a scalar, or a row (M,): one per spacecraft) for
+    spacecraft ``lo`` to ``hi`` − 1 of component-major rows: q (4, M), ω (3, M), h_w, τ, I, I⁻¹ (3, M); writes q_out (4, M), w_out (3, M), with q
     renormalised when ``last`` (the tick's last sub-step). ``q_out``/``w_out`` may be
     ``q``/``w`` (XLA updates one run's state in place).
 
@@ -116,7 +131,7 @@ def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out, lo, hi):
         for i in range(lo, hi):
             r = np.uint64(i)
             (q_out[0, r], q_out[1, r], q_out[2, r], q_out[3, r],
-             w_out[0, r], w_out[1, r], w_out[2, r]) = _step_one(q, w, hw, tq, inertia, inv, r, h, last)
+             w_out[0, r], w_out[1, r], w_out[2, r]) = _step_one(q, w, hw, tq, inertia, inv, r, _lane(h, r), last)
         return
     new = carray(_stack_rows(), (7, BLOCK))
     for r0 in range(lo, hi, BLOCK):
@@ -124,7 +139,7 @@ def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out, lo, hi):
         for i in range(m):
             k = np.uint64(i)
             new[0, k], new[1, k], new[2, k], new[3, k], new[4, k], new[5, k], new[6, k] = _step_one(
-                q, w, hw, tq, inertia, inv, np.uint64(r0) + k, h, last)
+                q, w, hw, tq, inertia, inv, np.uint64(r0) + k, _lane(h, np.uint64(r0) + k), last)
         for i in range(m):
             k = np.uint64(i)
             r = np.uint64(r0) + k
@@ -199,4 +214,35 @@ def handler(frame):
     w_out = carray(f64_at(addresses[7]), (lead, 3, m))
     for k in range(lead):
         _steps(q[k], w[k], hw[k], tq[k], inertia[k], inv[k], h[k], sub[k], q_out[k], w_out[k], 0, m)
+    return 0
+
+
+@cfunc(HANDLER_SIGNATURE, nopython=True, error_model="numpy", cache=True)
+def segments_handler(frame):
+    """XLA FFI handler of :data:`SEGMENTS_TARGET`: the tick as S consecutive segments, each
+    with its own held torque and, per spacecraft, its own length (a pulsed actuator's tick cut
+    at every switch instant), each in ``sub`` RK4 steps, then q renormalised. Arguments q
+    (…, 4, M), ω, h_w (…, 3, M), τ (…, 3·S, M: segment s in rows 3s to 3s + 2), I, I⁻¹
+    (…, 3, M), the step lengths h (…, S, M) s, the sub-steps and S (…) int64; results q
+    (…, 4, M), ω (…, 3, M). The leading dimensions (…, L in all) are vmap's. One thread."""
+    if answer_metadata(frame):
+        return 0
+    q_at, lead, m = buffer(frame, 0, False)
+    sub = carray(i64_at(buffer(frame, 7, False)[0]), lead)
+    n_seg = carray(i64_at(buffer(frame, 8, False)[0]), lead)[0]
+    q = carray(f64_at(q_at), (lead, 4, m))
+    w = carray(f64_at(buffer(frame, 1, False)[0]), (lead, 3, m))
+    hw = carray(f64_at(buffer(frame, 2, False)[0]), (lead, 3, m))
+    tq = carray(f64_at(buffer(frame, 3, False)[0]), (lead, n_seg, 3, m))
+    inertia = carray(f64_at(buffer(frame, 4, False)[0]), (lead, 3, m))
+    inv = carray(f64_at(buffer(frame, 5, False)[0]), (lead, 3, m))
+    h = carray(f64_at(buffer(frame, 6, False)[0]), (lead, n_seg, m))
+    q_out = carray(f64_at(buffer(frame, 0, True)[0]), (lead, 4, m))
+    w_out = carray(f64_at(buffer(frame, 1, True)[0]), (lead, 3, m))
+    for k in range(lead):
+        for g in range(n_seg):
+            for s in range(sub[k]):
+                first = g == 0 and s == 0
+                _rows(q[k] if first else q_out[k], w[k] if first else w_out[k], hw[k], tq[k, g], inertia[k], inv[k],
+                      h[k, g], g == n_seg - 1 and s == sub[k] - 1, q_out[k], w_out[k], 0, m)
     return 0

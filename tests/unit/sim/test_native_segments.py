@@ -88,3 +88,20 @@ def test_sorted_rows_is_a_sort(k):
     a = rng.integers(0, 4, size=(k, 50)).astype(float)  # many ties
     a[:, :10] = rng.normal(size=(k, 10))
     np.testing.assert_array_equal(np.asarray(_sorted_rows(jnp.asarray(a))), np.sort(a, axis=0))
+
+
+def test_gpu_lowering_keeps_the_xla_piecewise_tick():
+    # No GPU here: lower a pulsed run for CUDA (jax.export needs no device) and check that the
+    # CPU-only custom call is not in it, while the CPU lowering has it.
+    from jax import export
+
+    from coopsat.sim.native.rigid_body import TARGET
+
+    run = jax.jit(lambda s: run_samples(s, 1))
+
+    def module(platform):
+        checks = [export.DisabledSafetyCheck.custom_call(t) for t in (TARGET, SEGMENTS_TARGET)]
+        return export.export(run, platforms=(platform,), disabled_checks=checks)(pulsed(t_final_s=1.0)).mlir_module()
+
+    assert SEGMENTS_TARGET in module("cpu")
+    assert SEGMENTS_TARGET not in module("cuda")

@@ -38,7 +38,7 @@ scenario = "consensus-sync-a-stable"
 runs = {RUNS}
 master_seed = 4242
 batch_size = 2
-overrides = ["sim.t_final_s=200"]  # ~0.8 s a batch: time to SIGKILL between two batches
+overrides = ["sim.t_final_s=400"]  # ~0.8 s a batch (native PWM tick): time to SIGKILL between two batches
 
 [[dispersions]]
 field = "spacecraft.*.omega_b_rad_s"

@@ -154,20 +154,21 @@ def _integrate_tick(x, pulses, t_in_period, t_period, d_states, system, batched)
     t0 = t_period + t_in_period
     pulsed = [p for a, p in zip(system.actuators, pulses) if a.pulsed]
 
-    def reference(s, xx, wrench, t):  # the XLA tick; a native kernel's fallback and derivative
-        for k in range(sub):
-            xx = _rk4(xx, wrench, t + k * (s.dt_s / sub), s.dt_s / sub, d_states, s, batched)
-        return _renormalise(s, xx)
-
-    def smooth(xx, wrench):
-        return native.smooth_tick(system, xx, wrench, t0, _moving_fields(system), reference)
-
-    def segments(s, xx, wrenches, starts, lengths, t):  # the XLA piecewise tick
+    # The XLA ticks: a native kernel's fallback and derivative. The smooth tick is one segment
+    # of the whole tick (t + 0 and w[None][0] are exact, so this is the same arithmetic).
+    def segments(s, xx, wrenches, starts, lengths, t):
         for m in range(lengths.shape[0]):
             h = lengths[m] / sub
             for k in range(sub):
                 xx = _rk4(xx, {c: w[m] for c, w in wrenches.items()}, t + starts[m] + k * h, h, d_states, s, batched)
         return _renormalise(s, xx)
+
+    def reference(s, xx, wrench, t):
+        one = jnp.reshape(s.dt_s, (1,))
+        return segments(s, xx, {c: w[None] for c, w in wrench.items()}, jnp.zeros_like(one), one, t)
+
+    def smooth(xx, wrench):
+        return native.smooth_tick(system, xx, wrench, t0, _moving_fields(system), reference)
 
     def split(xx):
         # Switch instants of every pulsed axis inside this tick, sorted per spacecraft: the

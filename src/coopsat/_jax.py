@@ -61,3 +61,40 @@ jax.config.update("jax_compilation_cache_dir", _cache_dir)
 # which is below JAX's default threshold but still most of a short run's wall time.
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+
+UNROLLED_THREEFRY_MAX = 16
+"""Largest Threefry hash (output elements) lowered unrolled on the CPU (:func:`_unroll_small_threefry`)."""
+
+
+def _unroll_small_threefry():
+    """On the CPU, lower small Threefry hashes (a key's ``fold_in``, a few spacecraft's noise)
+    as straight-line code instead of JAX's rolled loop.
+
+    JAX lowers Threefry on the CPU as a ``fori_loop`` of five rounds (to keep compilation
+    small), and inside the closed loop, where XLA cannot hoist that loop, each hash is a
+    while loop of five iterations of kernel launches: a ``fold_in`` cost 630 ns against
+    35 ns unrolled (measured in a loop), and a period does one per part that draws. Unrolled
+    up to :data:`UNROLLED_THREEFRY_MAX` elements: ``observation-cooperative`` 1.19 → 0.86 s,
+    ``observation-independent`` 0.93 → 0.60 s, ``delay-classic`` 0.092 → 0.027 s; larger
+    hashes keep the rolled loop (unrolled, the PSO's draws made ``cartwheel-keeping-pso``
+    3× slower). The hash is the same integer arithmetic either way, so every random number
+    is unchanged. JAX's private module may move: then nothing is changed."""
+    try:
+        from math import prod
+
+        from jax._src.random import threefry2x32 as threefry
+        from jax.interpreters import mlir
+
+        rolled, unrolled = threefry._threefry2x32_cpu_lowering_rule, threefry._threefry2x32_lowering_rule
+        primitive = threefry.threefry2x32_p
+    except (ImportError, AttributeError):
+        return
+
+    def lowering(ctx, *args):
+        small = prod(ctx.avals_out[0].shape) <= UNROLLED_THREEFRY_MAX
+        return (unrolled if small else rolled)(ctx, *args)
+
+    mlir.register_lowering(primitive, lowering, platform="cpu")
+
+
+_unroll_small_threefry()

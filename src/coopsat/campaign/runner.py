@@ -61,11 +61,15 @@ def make_job(campaign_path):
             "fields": fields}
 
 
-def run_overrides(job, run_id, seqs=None):
-    """The applied values, seed and ``--set`` strings (on the job's scenario) of one run."""
+def run_overrides(job, run_id, seqs=None, bases=None):
+    """The applied values, seed and ``--set`` strings (on the job's scenario) of one run.
+
+    ``seqs`` (:func:`run_seed_sequences`) and ``bases`` (:func:`base_values`) may be given by a
+    caller that draws many runs, so that each is computed once (parsing the scenario for
+    ``bases`` took 3 ms a run)."""
     campaign = Campaign.model_validate(job["campaign"])
     seq = (seqs or run_seed_sequences(campaign.master_seed, campaign.runs))[run_id]
-    applied, seed = draw_run(campaign, job["fields"], base_values(job), seq)
+    applied, seed = draw_run(campaign, job["fields"], base_values(job) if bases is None else bases, seq)
     return applied, seed, overrides_for(applied, seed)
 
 
@@ -88,15 +92,16 @@ def run_batch(job, run_ids):
 
     campaign = Campaign.model_validate(job["campaign"])
     seqs = run_seed_sequences(campaign.master_seed, campaign.runs)
+    bases = base_values(job)
     rows, builds, where = {}, [], []
     with tempfile.TemporaryDirectory() as tmp:
         scenario = Path(tmp) / "scenario.toml"
         scenario.write_text(job["scenario_toml"])
         for k in run_ids:
-            applied, seed, overrides = run_overrides(job, k, seqs)
+            applied, seed, overrides = run_overrides(job, k, seqs, bases)
             row = {"run_id": k, "status": "ok", "reason": "", "seed": seed, "params": json.dumps(applied)}
             try:
-                builds.append(prepare(load_scenario(scenario, overrides)))
+                builds.append(prepare(load_scenario(scenario, overrides), check_published=False))
                 where.append(k)
             except ScenarioError as err:
                 row.update(status="failed", reason=f"invalid scenario: {err}")

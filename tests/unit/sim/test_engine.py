@@ -1,5 +1,7 @@
 """Engine mechanics: batching, chunking, recording, non-finite detection."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -127,3 +129,44 @@ def test_a_batch_run_group_after_group_with_padding_equals_separate_runs(monkeyp
         for key, want in single.samples.items():
             assert out.samples[key].shape[0] == 5
             np.testing.assert_allclose(out.samples[key][k], want, rtol=0, atol=1e-12 * max(np.max(np.abs(want)), 1e-3))
+
+
+@pytest.mark.parametrize("full", [1, 2, 7, 20, 50, 64, 1000])
+def test_bucket_sizes_recur_cover_and_pad_at_most_double(full):
+    from coopsat.sim.engine import bucket_runs
+
+    sizes = [bucket_runs(n, full) for n in range(1, full + 1)]
+    assert all(s >= n for n, s in zip(range(1, full + 1), sizes))
+    assert all(s < 2 * n or s == 1 for n, s in zip(range(1, full + 1), sizes))
+    assert sizes[-1] == full  # a full batch is not padded
+    assert len(set(sizes)) <= math.ceil(np.log2(full)) + 1  # few programs per structure
+    assert bucket_runs(full + 3, full) == full + 3  # above the expected size: as it is
+
+
+def test_padded_batch_gives_each_run_what_the_unpadded_batch_gives():
+    """Padding with copies of the last run (bucket) changes no run's result, and the padding
+    runs are not returned."""
+    runs = [_built("consensus-sync-a", f"spacecraft.1.omega_b_rad_s=[0.5, {w}, 0.0]") for w in (5.0, 4.0, 3.0)]
+    batch = stack_systems([b.system for b in runs])
+    plain = simulate(batch, runs[0].n_records, runs[0].record_interval_s, batched=True, every_core=False)
+    padded = simulate(batch, runs[0].n_records, runs[0].record_interval_s, batched=True, every_core=False, bucket=16)
+    assert padded.samples.keys() == plain.samples.keys()
+    for k in plain.samples:
+        assert padded.samples[k].shape == plain.samples[k].shape  # 3 runs, not 4
+        np.testing.assert_allclose(padded.samples[k], plain.samples[k], rtol=0, atol=1e-13)
+
+
+def test_first_and_last_samples_are_compiled_with_the_chunks():
+    """One simulate compiles three programs (first sample, chunk, last sample) and a second
+    run of the same structure reuses them all."""
+    from coopsat.sim import engine
+
+    built = _built("consensus-sync-a", "sim.t_final_s=3.0")
+    engine._COMPILED.clear()
+    first = simulate(built.system, built.n_records, built.record_interval_s)
+    (programs,) = engine._COMPILED.values()
+    assert len(programs) == 3 and all(hasattr(p, "cost_analysis") for p in programs)
+    again = simulate(built.system, built.n_records, built.record_interval_s)
+    assert again.compile_s < first.compile_s and engine._COMPILED[next(iter(engine._COMPILED))] is programs
+    for k in first.samples:
+        np.testing.assert_array_equal(first.samples[k], again.samples[k])

@@ -79,6 +79,7 @@ import numpy as np
 from scipy.linalg import expm, matrix_balance, solve_continuous_are
 
 from coopsat.design.lmi import LQR_SOLVERS, RTOL, LMIResult, MatrixInequality, solve_lmis
+from coopsat.design.memo import by_value
 
 #: Coordinates of the observable (relative) subsystem, see :func:`relative_basis`.
 COORDINATES = ("hub", "orthonormal")
@@ -636,6 +637,7 @@ def _gamma_text(gamma):
     return "none" if gamma is None or not math.isfinite(gamma) else f"{gamma:.6g}"
 
 
+@by_value
 def _solve_eq11(a, b, q, r, x0_shape, objective, gamma_max, what, names):
     """Eq. (11) for u = K x on (a, b) with weights (q, r); returns (K, P, Y, γ, result, eigs)."""
     a, b = _matrix("a", a), _matrix("b", b)

@@ -74,6 +74,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy.optimize import minimize
 
+from coopsat.design.memo import by_value
+
 #: Relative tolerance of the re-check. A strict inequality holds if its margin exceeds
 #: ``RTOL`` times the block's spectral norm; a non-strict one if it is not violated by more.
 #: Forming a block from the returned values and taking its eigenvalues in float64 errs by
@@ -597,6 +599,7 @@ def _decay_search(program, a0, mats, h, alpha_hi, tol, solvers, rtol):
     return CertifiedBound(found.value, found.result, found.upper, found.n_solves + 1)
 
 
+@by_value
 def max_certified_delay(a0, terms, alpha=0.0, h_hi=None, tol=1e-4, solvers=DEFAULT_SOLVERS, rtol=RTOL):
     """Largest h that :func:`certify_delay_bound` certifies (bisection).
 
@@ -633,6 +636,7 @@ def max_certified_delay(a0, terms, alpha=0.0, h_hi=None, tol=1e-4, solvers=DEFAU
     return _delay_search(program, a0, mats, _nonnegative("alpha", alpha), h_hi, tol, solvers, rtol)
 
 
+@by_value
 def max_decay_rate(a0, terms, h, alpha_hi=None, tol=1e-4, solvers=DEFAULT_SOLVERS, rtol=RTOL):
     """Largest α (decay rate of V, 1/s) certified at delay bound h (bisection).
 

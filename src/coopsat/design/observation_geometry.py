@@ -4,6 +4,8 @@ rises, and a default target under the ground track.
 NumPy/SciPy; the closed loop uses :mod:`coopsat.control.observation`.
 """
 
+import functools
+
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
@@ -47,13 +49,26 @@ def sun_pointing_quaternion(sun_eci, r_eci_m):
     return q if q[0] >= 0 else -q
 
 
-def propagate(r0_m, v0_m_s, times_s, mu_m3_s2, j2, r_body_m):
-    """ECI positions at ``times_s`` under two-body + J2 (DOP853, rtol 1e-10), shape (len(times_s), 3)."""
+@functools.cache
+def _state_derivative():
+    """``f(s, μ, J2, R) = [v, a]`` of an ECI state ``s = [r m, v m/s]`` under two-body + J2,
+    compiled (the JAX force models run op by op cost 0.5 ms a call: 6.7 s for the two orbits
+    of a pass, against 0.6 s)."""
+    import jax
+    import jax.numpy as jnp
+
     from coopsat.dynamics.translational import j2_accel, two_body_accel
 
+    return jax.jit(lambda s, mu, j2, rb: jnp.concatenate([s[3:], two_body_accel(s[:3], mu) + j2_accel(s[:3], mu, j2, rb)]))
+
+
+def propagate(r0_m, v0_m_s, times_s, mu_m3_s2, j2, r_body_m):
+    """ECI positions at ``times_s`` under two-body + J2 (DOP853, rtol 1e-10), shape (len(times_s), 3)."""
+
+    derivative = _state_derivative()
+
     def f(_, s):
-        r = s[:3]
-        return np.concatenate([s[3:], np.asarray(two_body_accel(r, mu_m3_s2) + j2_accel(r, mu_m3_s2, j2, r_body_m))])
+        return np.asarray(derivative(s, mu_m3_s2, j2, r_body_m))
 
     sol = solve_ivp(f, (0.0, float(times_s[-1])), np.concatenate([r0_m, v0_m_s]), t_eval=times_s, method="DOP853",
                     rtol=1e-10, atol=1e-6)

@@ -11,6 +11,7 @@ from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
 from coopsat.astro.earth import ecef_to_geodetic, eci_to_ecef, geodetic_to_ecef, rotation_angle_rad, up_ecef
+from coopsat.design.memo import by_value
 
 
 def sun_pointing_quaternion(sun_eci, r_eci_m):
@@ -83,6 +84,7 @@ def target_elevations(r_eci_m, times_s, target_ecef_m, up_target_ecef, gmst0_rad
     return np.arcsin(los @ up_target_ecef / np.linalg.norm(los, axis=1))
 
 
+@by_value
 def first_visible_s(r0_m, v0_m_s, target_ecef_m, up_target_ecef, gmst0_rad, min_elevation_rad, horizon_s, mu_m3_s2,
                     j2, r_body_m, step_s=5.0):
     """First time the target is at least ``min_elevation_rad`` above its horizon, s (None if not

@@ -172,8 +172,12 @@ def group_runs(builds):
 
 
 def prepare_runs(ref, override_lists):
-    """Load, validate and build the scenario once per override list (nothing runs)."""
-    return [prepare(load_scenario(ref, overrides)) for overrides in override_lists]
+    """Load, validate and build the scenario once per override list (nothing runs).
+
+    The runs are analysed without comparing with published values, so their ``[[published]]``
+    names are not checked (:func:`~coopsat.pipeline.prepare`: the check traces the engine,
+    2 s a run of ``observation-cooperative``)."""
+    return [prepare(load_scenario(ref, overrides), check_published=False) for overrides in override_lists]
 
 
 def simulate_runs(builds, progress=False, every_core=True, bucket=None):

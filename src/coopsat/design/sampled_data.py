@@ -29,6 +29,7 @@ import numpy as np
 from scipy.linalg import expm, null_space
 from scipy.optimize import brentq
 
+from coopsat.design.memo import by_value
 from coopsat.network.topology import laplacian
 
 
@@ -181,6 +182,7 @@ def max_stable_period(a, b, g, quotient, t_min_s=1e-6, t_max_s=1e3, n_grid=64):
     return float("inf")
 
 
+@by_value
 def analyze_sampled_data(inertia_kgm2, adjacency, period_s, alpha, beta, k_p=0.0, k_d=0.0, omega_ref_rad_s=(0, 0, 0)):
     """Stability of laws (3)/(4) sampled every ``period_s`` with a zero-order hold.
 

@@ -65,7 +65,6 @@ def _state_derivative():
 
 def propagate(r0_m, v0_m_s, times_s, mu_m3_s2, j2, r_body_m):
     """ECI positions at ``times_s`` under two-body + J2 (DOP853, rtol 1e-10), shape (len(times_s), 3)."""
-
     derivative = _state_derivative()
 
     def f(_, s):

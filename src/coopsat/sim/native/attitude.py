@@ -39,7 +39,6 @@ def _native(system, x, torque_b, t_s):
     # worker has one, and its neighbour the other core).
     cores = np.int64(len(jax.devices("cpu")))
 
-    rows = lambda a: _rows(a, shape)  # noqa: E731
     call = jax.ffi.ffi_call(
         TARGET, (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype)),
         vmap_method="broadcast_all",
@@ -50,8 +49,8 @@ def _native(system, x, torque_b, t_s):
         input_output_aliases={0: 0, 1: 1} if x.q_bi.ndim == 2 else {},
     )
     p = system.plant
-    q, w = call(rows(x.q_bi), rows(x.omega_b), rows(x.h_wheels_b), rows(torque_b), rows(p.inertia_kgm2),
-                rows(p.inertia_inv), system.dt_s / sub, sub, cores)
+    q, w = call(*(_rows(a, shape) for a in (x.q_bi, x.omega_b, x.h_wheels_b, torque_b, p.inertia_kgm2, p.inertia_inv)),
+                system.dt_s / sub, sub, cores)
     return x._replace(q_bi=q.reshape(x.q_bi.shape), omega_b=w.reshape(shape))
 
 

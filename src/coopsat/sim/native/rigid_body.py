@@ -117,9 +117,10 @@ def _step_one(q, w, hw, tq, inertia, inv, r, h, last):
 @njit(fastmath=False, error_model="numpy", cache=True, inline="always")
 def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out, lo, hi):
     """One RK4 step of length ``h`` (s; a scalar, or a row (M,): one per spacecraft) for
-    spacecraft ``lo`` to ``hi`` − 1 of component-major rows: q (4, M), ω (3, M), h_w, τ, I, I⁻¹ (3, M); writes q_out (4, M), w_out (3, M), with q
-    renormalised when ``last`` (the tick's last sub-step). ``q_out``/``w_out`` may be
-    ``q``/``w`` (XLA updates one run's state in place).
+    spacecraft ``lo`` to ``hi`` − 1 of component-major rows: q (4, M), ω (3, M), h_w, τ, I,
+    I⁻¹ (3, M); writes q_out (4, M), w_out (3, M), with q renormalised when ``last`` (the
+    tick's last sub-step). ``q_out``/``w_out`` may be ``q``/``w`` (XLA updates one run's
+    state in place).
 
     One spacecraft per SIMD lane. In place, a direct store would overlap the rows being read,
     and LLVM would take its scalar fallback: spacecraft then go in blocks of :data:`BLOCK`,

@@ -1,4 +1,6 @@
-"""Shared test set-up: a private JAX compilation cache, so tests never touch the user's."""
+"""Shared test set-up: the test process is set up as the ``coopsat`` command sets up its own
+(XLA's CPU options, float64), with a private JAX compilation cache, so tests never touch the
+user's. tests/meta/test_import_side_effects.py checks a bare import in a fresh interpreter."""
 
 import os
 import tempfile
@@ -6,6 +8,11 @@ import tempfile
 import pytest
 
 os.environ.setdefault("COOPSAT_JAX_CACHE", os.path.join(tempfile.gettempdir(), "coopsat-test-jax-cache"))
+
+from coopsat import _jax  # noqa: E402
+
+_jax.configure_process()
+_jax.enable()  # tests call low-level JAX functions directly, before any build or run
 
 
 def _run_toml(directory, text, overrides=()):

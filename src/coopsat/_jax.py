@@ -1,30 +1,72 @@
-"""JAX set-up shared by every module that runs compiled code.
+"""JAX set-up: what coopsat's compiled code needs from JAX, done on request, never at import.
 
-Importing this module turns on float64 (the closed loop integrates attitude to 1e-12) and the
-persistent compilation cache, so a second ``coopsat run`` of the same model structure skips
-XLA compilation. The cache lives in ``$COOPSAT_JAX_CACHE`` or ``~/.cache/coopsat/jax``.
+Importing any coopsat module changes nothing in the process: no environment variable, no JAX
+configuration value, no lowering rule (tests/meta/test_import_side_effects.py checks it in a
+fresh interpreter). Two functions change the process, each documented where it is public
+(docs/api.md, "What coopsat changes in your process"):
+
+* :func:`enable` — the one change a library user gets: the first run, batch or design call
+  that builds a scenario turns on ``jax_enable_x64`` (the closed loop integrates attitude to
+  1e-12 and float32 cannot) and lowers small Threefry hashes unrolled on the CPU (the same
+  bits, 2–3× faster runs with per-period random draws). Both are process-wide; call
+  :func:`coopsat.configure` first to choose.
+* :func:`configure_process` — what the ``coopsat`` command (and the Dask workers coopsat starts
+  itself) set for their own process: XLA's CPU options (one device per core, YNNPACK fusions
+  off) and the persistent compilation cache.
 """
 
 import os
 import re
+import sys
 from importlib.metadata import version
 from pathlib import Path
+
+UNROLLED_THREEFRY_MAX = 16
+"""Largest Threefry hash (output elements) lowered unrolled on the CPU (:func:`_unroll_small_threefry`)."""
+
+_enabled = False
+_choices = {"float64": True, "unrolled_threefry": True}
+
+
+def set_choices(float64=True, unrolled_threefry=True):
+    """Record what :func:`enable` will do (``coopsat.configure``); applies at once if it already ran."""
+    global _enabled
+    _choices.update(float64=bool(float64), unrolled_threefry=bool(unrolled_threefry))
+    _enabled = False
+    enable()
+
+
+def enable():
+    """Turn on float64 and the unrolled small Threefry lowering (unless declined), once.
+
+    Called by every coopsat entry that runs JAX code (scenario build, the engine, the public
+    API); idempotent and cheap after the first call.
+    """
+    global _enabled
+    if _enabled:
+        return
+    _enabled = True
+    import jax
+
+    if _choices["float64"]:
+        jax.config.update("jax_enable_x64", True)
+    if _choices["unrolled_threefry"]:
+        _unroll_small_threefry()
 
 
 def _cpu_devices():
     """How many CPU devices XLA presents: one per core this process may use, so that the
     groups of a large batch run on every core (``sim.engine._run_chunk_batched``); a single
-    run stays on one. ``$COOPSAT_CPU_DEVICES`` overrides (a campaign's Dask workers set 1:
-    they are one per core already)."""
+    run stays on one. ``$COOPSAT_CPU_DEVICES`` overrides."""
     wanted = os.environ.get("COOPSAT_CPU_DEVICES")
     if wanted:
         return max(1, int(wanted))
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
-def _xla_cpu_flags():
-    """XLA_FLAGS with one CPU device per core (:func:`_cpu_devices`) and YNNPACK fusions off
-    on the CPU, unless the user chose otherwise.
+def _xla_cpu_flags(cpu_devices=None):
+    """XLA_FLAGS with ``cpu_devices`` CPU devices (default :func:`_cpu_devices`) and YNNPACK
+    fusions off on the CPU, unless the user chose otherwise.
 
     XLA:CPU (jaxlib ≥ 0.10) hands small reductions, such as the per-receiver sum of a
     consensus law over a padded in-neighbour table, to YNNPACK as opaque kernels that also
@@ -33,12 +75,12 @@ def _xla_cpu_flags():
     §"Engine speed"). Older jaxlibs do not know the flag (and abort on unknown flags).
     """
     flags = os.environ.get("XLA_FLAGS", "")
-    if os.environ.get("COOPSAT_CPU_DEVICES"):
+    if cpu_devices is not None or os.environ.get("COOPSAT_CPU_DEVICES"):
         # Explicit, so it wins over a count inherited from a parent process's XLA_FLAGS (a
         # campaign's workers inherit the driver's).
         flags = re.sub(r"\s*--xla_force_host_platform_device_count=\S*", "", flags)
     if "xla_force_host_platform_device_count" not in flags:
-        flags = f"{flags} --xla_force_host_platform_device_count={_cpu_devices()}".strip()
+        flags = f"{flags} --xla_force_host_platform_device_count={cpu_devices or _cpu_devices()}".strip()
     try:
         major, minor = (int(v) for v in version("jaxlib").split(".")[:2])
     except (ValueError, ImportError):
@@ -48,22 +90,51 @@ def _xla_cpu_flags():
     return f"{flags} --xla_cpu_experimental_ynn_fusion_type=".strip()
 
 
-# Read by XLA when its CPU backend starts (the first computation), so set before any.
-os.environ["XLA_FLAGS"] = _xla_cpu_flags()
+CACHE_SETTINGS = {
+    # Cache every compiled program, not only slow ones: the closed loop compiles in about a
+    # second, below JAX's default threshold but still most of a short run's wall time.
+    "jax_persistent_cache_min_compile_time_secs": 0.0,
+    "jax_persistent_cache_min_entry_size_bytes": 0,
+}
 
-import jax  # noqa: E402
 
-jax.config.update("jax_enable_x64", True)
+def cache_settings():
+    """JAX's persistent-cache options as coopsat's own processes use them (name -> value):
+    ``$COOPSAT_JAX_CACHE`` or ``~/.cache/coopsat/jax``, every program cached."""
+    cache_dir = os.environ.get("COOPSAT_JAX_CACHE") or str(Path.home() / ".cache" / "coopsat" / "jax")
+    return {"jax_compilation_cache_dir": cache_dir, **CACHE_SETTINGS}
 
-_cache_dir = os.environ.get("COOPSAT_JAX_CACHE") or str(Path.home() / ".cache" / "coopsat" / "jax")
-jax.config.update("jax_compilation_cache_dir", _cache_dir)
-# Cache every compiled program, not only slow ones: the closed loop compiles in about a second,
-# which is below JAX's default threshold but still most of a short run's wall time.
-jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
-jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
 
-UNROLLED_THREEFRY_MAX = 16
-"""Largest Threefry hash (output elements) lowered unrolled on the CPU (:func:`_unroll_small_threefry`)."""
+def process_environment(cpu_devices=None, cache=True):
+    """Environment variables of a process coopsat starts itself (a campaign's Dask worker):
+    ``XLA_FLAGS`` (:func:`_xla_cpu_flags`) and, with ``cache``, the ``JAX_*`` variables of
+    :func:`cache_settings` (JAX reads them when it is imported)."""
+    env = {"XLA_FLAGS": _xla_cpu_flags(cpu_devices)}
+    if cache:
+        env.update({name.upper(): str(value) for name, value in cache_settings().items()})
+    return env
+
+
+_process_configured = False
+
+
+def configure_process(cache=True):
+    """The settings of a process coopsat owns (the CLI, the test suite): XLA's CPU options and
+    the persistent compilation cache; float64 follows at the first build or run. Idempotent.
+
+    Call before the first computation: XLA reads ``XLA_FLAGS`` when its CPU backend starts.
+    JAX itself is not imported here (``coopsat list`` stays quick): if it is not loaded yet,
+    the cache settings go into the ``JAX_*`` variables it reads when imported.
+    """
+    global _process_configured
+    if _process_configured:
+        return
+    _process_configured = True
+    env = process_environment(cache=cache and "jax" not in sys.modules)
+    os.environ.update(env)
+    if cache and "jax" in sys.modules:
+        for name, value in cache_settings().items():
+            sys.modules["jax"].config.update(name, value)
 
 
 def _unroll_small_threefry():
@@ -95,6 +166,3 @@ def _unroll_small_threefry():
         return (unrolled if small else rolled)(ctx, *args)
 
     mlir.register_lowering(primitive, lowering, platform="cpu")
-
-
-_unroll_small_threefry()

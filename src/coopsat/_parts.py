@@ -12,7 +12,6 @@ each role in docs/architecture.md §4.
 import dataclasses
 from typing import NamedTuple
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

@@ -535,9 +535,10 @@ def main(argv=None):
     (after compiling, after a compiled chunk of the loop, between stages) with one line and
     status 130 or 143, leaving nothing behind (:mod:`coopsat._interrupt`).
     """
-    from coopsat import _interrupt
+    from coopsat import _interrupt, _jax
 
     args = build_parser().parse_args(argv)
+    _jax.configure_process()  # the command's own process: XLA's CPU options, compilation cache
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = _interrupt.install() if in_main_thread else {}
     try:

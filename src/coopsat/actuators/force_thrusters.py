@@ -14,7 +14,6 @@ The mean output ``force`` is the mean force applied over the record interval (fr
 ``force_impulse``).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

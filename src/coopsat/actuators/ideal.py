@@ -1,6 +1,5 @@
 """Ideal torque actuator: the commanded torque, clipped per axis, held over the period."""
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

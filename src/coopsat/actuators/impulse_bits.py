@@ -6,7 +6,6 @@ error is carried to the next period (first-order sigma-delta), so that over any 
 periods the delivered impulse follows the commanded impulse to within half a bit.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

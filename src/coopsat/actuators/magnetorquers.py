@@ -7,7 +7,6 @@ over the control period; the body feels ``L = m × B`` with ``B`` the tilted-dip
 turns by less than ω·T ≈ 1e-4 rad in inertial pointing, so holding it is exact to that order.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

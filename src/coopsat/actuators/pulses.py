@@ -9,7 +9,6 @@ instants, so on-times are honoured exactly rather than rounded to ticks.
 
 from typing import NamedTuple
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

@@ -9,7 +9,6 @@
 and the thruster of sign(u) fires for the first ``t_on`` of the period.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

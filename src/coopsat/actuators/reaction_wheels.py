@@ -32,7 +32,6 @@ rank 3, so the part and the plant agree).
 
 from typing import NamedTuple
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

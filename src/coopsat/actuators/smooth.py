@@ -6,7 +6,6 @@ the dead zone could grow to fire. The tuner optimises on these smooth surrogates
 re-runs the exact loop; both figures are reported (docs/tuning.md).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

@@ -1,6 +1,5 @@
 """Proportional thrusters with a dead zone (SPEC §4: 1–100 mN per axis, no thrust below 1 mN)."""
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

@@ -9,7 +9,6 @@ and, by reaction, the body receives ``−G τ``: with ``ḣ_w = G τ`` the rigid
 Arrays are component-major: body vectors (3, n), per-wheel quantities (m, n).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 import numpy as np

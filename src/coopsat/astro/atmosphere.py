@@ -6,7 +6,6 @@ solar cycle; at 500 km the real density swings by a factor of ten with solar act
 is the honest size of its error. ``jax.numpy``: traces under ``jit``.
 """
 
-from coopsat import _jax  # noqa: F401  (float64 on before any array is made)
 
 import jax.numpy as jnp
 

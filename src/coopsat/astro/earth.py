@@ -15,7 +15,6 @@ NumPy.
 
 from datetime import datetime, timezone
 
-from coopsat import _jax  # noqa: F401  (float64 on before any array is made)
 
 import jax.numpy as jnp
 import numpy as np

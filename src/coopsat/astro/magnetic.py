@@ -9,7 +9,6 @@ magnitude, and the secular variation moves ``g`` by about 0.1 % a year. ``jax.nu
 under ``jit``.
 """
 
-from coopsat import _jax  # noqa: F401  (float64 on before any array is made)
 
 import jax.numpy as jnp
 

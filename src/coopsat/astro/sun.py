@@ -7,7 +7,6 @@ rotating Earth of :mod:`coopsat.astro.earth` turns in (GMST, no precession or nu
 with ``jax.numpy``: it traces under ``jit`` with the Julian date a traced scalar.
 """
 
-from coopsat import _jax  # noqa: F401  (float64 on before any array is made)
 
 import jax.numpy as jnp
 

@@ -17,7 +17,6 @@ Formation plane: :data:`coopsat.dynamics.cw.PLANE_AXES_LVLH` (``e1 = x̂``, ``e2
 −1/2)``, ``e3 = e1 × e2``); the circle is ``ρ (cos θ e1 + sin θ e2)`` and turns at ``ω = n e3``.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

@@ -5,7 +5,6 @@ the spacecraft it hears; the sums run over the edges of the graph (segment sums 
 receiver index), never over a dense n×n matrix, so the law scales to thousands of spacecraft.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

@@ -29,7 +29,6 @@ force expected to act rather than the one asked for. All matrices come from the 
 (:mod:`coopsat.plugins.formation`).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

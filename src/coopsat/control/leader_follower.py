@@ -14,7 +14,6 @@ Follower i hears agent j (the leader among them) over the network, the message a
 The leader (``follower = 0``) flies free. K = [k_angle, k_rate] is the same on every axis.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

@@ -35,7 +35,6 @@ restoring term carries: every law below pushes ``vec(δq)`` to zero.
 Arrays here are one spacecraft's vectors, shape (3,) or (4,) (``local`` flight software).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

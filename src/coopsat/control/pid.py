@@ -5,7 +5,6 @@ the chief's measured orbit: the chief's GPS fix as the formation shares it). Nei
 the network: their outboxes are empty.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

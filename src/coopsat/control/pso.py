@@ -7,7 +7,6 @@ from an explicit ``jax.random`` key. :func:`grid_minimize` is the exhaustive che
 validate it on one or two variables.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

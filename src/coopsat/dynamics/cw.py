@@ -11,7 +11,6 @@ inside its jitted scan, ``vmap`` it and differentiate it. :mod:`coopsat.design.c
 functions for its numpy design work.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 import numpy as np
@@ -168,7 +167,7 @@ def transfer_impulse_l1(x0, xf, n_rad_s, tof_s, mass_kg):
 
 _HALF_SQRT3 = 0.8660254037844386
 
-PLANE_AXES_LVLH = jnp.array([[1.0, 0.0, 0.0], [0.0, _HALF_SQRT3, 0.5], [0.0, -0.5, _HALF_SQRT3]])
+PLANE_AXES_LVLH = np.array([[1.0, 0.0, 0.0], [0.0, _HALF_SQRT3, 0.5], [0.0, -0.5, _HALF_SQRT3]])
 """Columns ``e1, e2, e3``: the relative circle's plane (``e1 = x̂``, ``e2 = (0, √3/2, −1/2)``)
 and its normal ``e3 = e1 × e2``, LVLH components; the circle turns at ``ω = n e3``."""
 

@@ -8,7 +8,6 @@ closed loop is traced, so a rigid-body run pays nothing for it).
 
 from typing import NamedTuple
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

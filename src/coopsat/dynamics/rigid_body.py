@@ -5,7 +5,6 @@ I in front of ω̇, a typo). ``h_w`` is the wheels' angular momentum in body com
 wheels it is zero.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

@@ -4,7 +4,6 @@ The truth models of SPEC §2 and §5 propagate every spacecraft in ECI with thes
 ECI frame is the one defined in docs/conventions.md (Earth-centred, z along the pole).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

@@ -10,7 +10,6 @@ facets shadowing one another are not modelled (Basilisk's ``facetDragDynamicEffe
 ``facetSRPDynamicEffector`` make the same choice).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

@@ -4,7 +4,6 @@ Disturbance parts as in :mod:`coopsat.environment.torques`: ``init``, ``update``
 (every RK4 stage), ``record``. Arrays are component-major, (3, n).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

@@ -7,7 +7,6 @@ gradient) is exact to the integrator's order; ``record(t, x, state) -> dict`` wh
 records at a sample. Arrays are component-major, (3, n).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

@@ -23,7 +23,6 @@ axis aligned (a single chief against ``(3, n)`` deputies is ``(3, 1)``). A chief
 (``h = 0``) has no orbit plane and gives NaN.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

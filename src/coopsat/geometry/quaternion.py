@@ -13,7 +13,6 @@ component axis: the compiled loop keeps its arrays component-major, ``(4, n)`` a
 spacecraft (measured twice as fast as ``(n, 4)`` on the CPU; see docs/architecture.md).
 """
 
-from coopsat import _jax  # noqa: F401  (float64 on before any array is made)
 
 import jax.numpy as jnp
 

@@ -20,7 +20,6 @@ spacecraft broadcasting attitude and rate (7 numbers) with 2 s of delay at a 1 m
 2001 × 1000 × 7 × 8 B = 112 MB.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

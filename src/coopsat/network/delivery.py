@@ -9,7 +9,6 @@ schedules enter; with an ideal network the message is the transmitter's current 
 
 from typing import NamedTuple
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

@@ -8,7 +8,6 @@ computed from the plant state and the time, component-major ``(k, n)``:
 * ``"b_b"`` (3, n): the geomagnetic field in body axes, T (tilted dipole).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

@@ -10,7 +10,6 @@ noise term folds its own fixed tag into the key first, so the star tracker, the 
 and the gyro bias walk never draw the same numbers from one key.
 """
 
-from coopsat import _jax  # noqa: F401  (float64 on before any array is made)
 
 import math
 

@@ -20,7 +20,6 @@ Every noise term comes from :mod:`coopsat.sensors.noise` (spacecraft i draws fro
 ``fold_in(key, i)``), so a run replays bit for bit from its seed.
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax.numpy as jnp
 

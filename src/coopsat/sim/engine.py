@@ -29,7 +29,7 @@ import time
 from dataclasses import dataclass, replace
 from functools import partial
 
-from coopsat import _interrupt, _jax  # noqa: F401
+from coopsat import _interrupt, _jax
 
 import jax
 import jax.numpy as jnp
@@ -680,6 +680,7 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     NonFiniteStateError
         When the state becomes NaN or infinite; the run stops at the chunk where it happened.
     """
+    _jax.enable()
     if chunk is None:
         # Powers of two, so that runs of different lengths share compiled programs (the padded
         # record intervals of the last chunk are skipped, not simulated).

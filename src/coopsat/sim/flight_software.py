@@ -19,7 +19,6 @@ on a last spacecraft axis. Anything else a spacecraft uses must arrive over the 
 information structure is the engine's, not the law's promise (SPEC §4, decentralization).
 """
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

@@ -10,7 +10,6 @@ batch of runs is a :class:`System` whose data leaves carry a leading batch axis
 import dataclasses
 from dataclasses import dataclass
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

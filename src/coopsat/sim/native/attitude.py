@@ -1,7 +1,6 @@
 """The rigid-body kernels (:mod:`coopsat.sim.native.rigid_body`) as JAX functions: the smooth
 tick and the piecewise tick of a pulsed actuator."""
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

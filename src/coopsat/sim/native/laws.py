@@ -1,6 +1,5 @@
 """The consensus-law kernel (:mod:`coopsat.sim.native.consensus`) as a JAX function."""
 
-from coopsat import _jax  # noqa: F401
 
 import jax
 import jax.numpy as jnp

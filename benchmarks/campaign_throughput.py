@@ -13,7 +13,7 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from coopsat.campaign.runner import run_campaign
+from coopsat.workflows.campaign.runner import run_campaign
 
 TEMPLATE = """scenario = "{scenario}"
 runs = {runs}

@@ -84,7 +84,7 @@ _llvm.set_option("ceiling", "-vectorize-memory-check-threshold=1024")
 
 # numba's cache (``cache=True``) records each kernel's module by name and imports it again when
 # it loads the kernel in a later process. This file is loaded by path under various names
-# (``coopsat.bench`` and the tests use importlib, often without registering the module), so
+# (``coopsat.workflows.bench`` and the tests use importlib, often without registering the module), so
 # its functions take one fixed module name, registered in ``sys.modules`` (the module itself
 # when run as a script, else a namespace with its globals, completed at the end of the file).
 MODULE_NAME = "coopsat_ceiling"

@@ -6,7 +6,7 @@ Prints a table; asserts nothing (timings are measurements, not tests).
 
 import sys
 
-from coopsat.bench import run_benchmarks
+from coopsat.workflows.bench import run_benchmarks
 
 if __name__ == "__main__":
     sizes = [int(a) for a in sys.argv[1:]] or [1, 5, 1000, 10000]

@@ -17,7 +17,7 @@ _jax.enable()  # tests call low-level JAX functions directly, before any build o
 
 def _run_toml(directory, text, overrides=()):
     """Write a scenario's TOML into ``directory``, build and run it: (built, dataset)."""
-    from coopsat.pipeline import prepare, simulate_built
+    from coopsat.workflows.pipeline import prepare, simulate_built
     from coopsat.scenarios.load import load_scenario
 
     path = directory / "scenario.toml"

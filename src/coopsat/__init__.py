@@ -1,9 +1,76 @@
 """coopsat: cooperative control of spacecraft formations.
 
-The package is layered (see docs/architecture.md): geometry and astro at the bottom, then
-dynamics, actuators and network, then control and design, then the simulation engine, then
-scenarios, analysis, plots and the command line. Importing ``coopsat`` itself is cheap; JAX is
-imported by the modules that run compiled code.
+The public names (docs/api.md) are loaded on first use, so ``import coopsat`` is cheap and
+changes nothing in the process (no environment variable, no JAX setting)::
+
+    import coopsat
+
+    s = coopsat.Scenario.load("consensus-sync-a-stable").set("sim.t_final_s", 20.0)
+    result = coopsat.run(s)
+    result.metrics["final_attitude_spread_deg"]
+
+Subpackages with public functions: :mod:`coopsat.design` (LQR, delay margins and
+certificates, LMIs, sampled-data checks), :mod:`coopsat.network` (topology metrics), and
+:mod:`coopsat.plugins` (the plug-in protocols and registry). Everything else is internal.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 __version__ = "0.1.0"
+
+_PUBLIC = {
+    "Scenario": "coopsat.scenarios.document",
+    "ScenarioError": "coopsat.scenarios.load",
+    "Result": "coopsat.workflows.pipeline",
+    "Validation": "coopsat.api",
+    "Batch": "coopsat.api",
+    "CampaignRun": "coopsat.api",
+    "configure": "coopsat.api",
+    "validate": "coopsat.api",
+    "run": "coopsat.api",
+    "run_batch": "coopsat.api",
+    "sweep": "coopsat.api",
+    "pair": "coopsat.api",
+    "tune": "coopsat.api",
+    "campaign": "coopsat.api",
+}
+_SUBPACKAGES = ("design", "network", "plugins")
+
+__all__ = sorted([*_PUBLIC, *_SUBPACKAGES, "__version__"])
+
+if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazily (__getattr__)
+    from coopsat import design, network, plugins
+    from coopsat.api import (
+        Batch,
+        CampaignRun,
+        Validation,
+        campaign,
+        configure,
+        pair,
+        run,
+        run_batch,
+        sweep,
+        tune,
+        validate,
+    )
+    from coopsat.workflows.pipeline import Result
+    from coopsat.scenarios.document import Scenario
+    from coopsat.scenarios.load import ScenarioError
+
+
+def __getattr__(name: str):
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(_PUBLIC[name]), name)
+    elif name in _SUBPACKAGES:
+        value = importlib.import_module(f"coopsat.{name}")
+    else:
+        raise AttributeError(f"module 'coopsat' has no attribute {name!r}")
+    globals()[name] = value  # the next lookup is a plain attribute
+    return value
+
+
+def __dir__():
+    return __all__

@@ -17,14 +17,14 @@ EXIT_TERMINATED = 143
 
 def _input_errors():
     from coopsat.network.topology import GraphError
-    from coopsat.pipeline import RunFolderError
+    from coopsat.workflows.pipeline import RunFolderError
     from coopsat.scenarios.load import ScenarioError
     from coopsat.sim.engine import NonFiniteStateError
-    from coopsat.sweep import SweepError
-    from coopsat.tradeoff import TradeoffError
-    from coopsat.campaign.spec import CampaignError
-    from coopsat.tune import TuneError
-    from coopsat.pair import PairError
+    from coopsat.workflows.sweep import SweepError
+    from coopsat.workflows.tradeoff import TradeoffError
+    from coopsat.workflows.campaign.spec import CampaignError
+    from coopsat.workflows.tune import TuneError
+    from coopsat.workflows.pair import PairError
 
     return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError,
             PairError)
@@ -56,7 +56,7 @@ def _cmd_show(args):
 
 
 def _cmd_validate(args):
-    from coopsat.pipeline import prepare
+    from coopsat.workflows.pipeline import prepare
     from coopsat.scenarios.load import load_scenario
 
     scenario = load_scenario(args.scenario, args.set)
@@ -72,7 +72,7 @@ def _cmd_validate(args):
 
 
 def _cmd_run(args):
-    from coopsat.pipeline import run_scenario
+    from coopsat.workflows.pipeline import run_scenario
 
     result = run_scenario(
         args.scenario,
@@ -98,7 +98,7 @@ def _cmd_run(args):
 
 
 def _cmd_margin(args):
-    from coopsat.pipeline import prepare
+    from coopsat.workflows.pipeline import prepare
     from coopsat.scenarios.load import ScenarioError, load_scenario
 
     built = prepare(load_scenario(args.scenario, args.set))
@@ -121,7 +121,7 @@ def _cmd_margin(args):
 
 
 def _leader_follower(args):
-    from coopsat.pipeline import prepare
+    from coopsat.workflows.pipeline import prepare
     from coopsat.scenarios.load import ScenarioError, load_scenario
 
     built = prepare(load_scenario(args.scenario, args.set))
@@ -243,7 +243,7 @@ def _cmd_topology(args):
 
 
 def _cmd_tradeoff(args):
-    from coopsat.tradeoff import DEFAULT_SCALES_N, TradeoffError, run_tradeoff
+    from coopsat.workflows.tradeoff import DEFAULT_SCALES_N, TradeoffError, run_tradeoff
 
     try:
         scales = [float(v) for v in args.scales.split(",")] if args.scales else list(DEFAULT_SCALES_N)
@@ -276,7 +276,7 @@ def _cmd_tradeoff(args):
 
 
 def _cmd_sweep(args):
-    from coopsat.sweep import parse_plot, parse_vary, printed_metrics, run_sweep, table_lines
+    from coopsat.workflows.sweep import parse_plot, parse_vary, printed_metrics, run_sweep, table_lines
 
     varies = [parse_vary(spec) for spec in args.vary]
     metrics = list(dict.fromkeys(m.strip() for m in args.metrics.split(","))) if args.metrics is not None else None
@@ -301,7 +301,7 @@ def _cmd_sweep(args):
 
 
 def _cmd_pair(args):
-    from coopsat.pair import check_pair_folder, run_pair, write_pair_folder
+    from coopsat.workflows.pair import check_pair_folder, run_pair, write_pair_folder
 
     if args.out:
         check_pair_folder(args.out)  # before the runs, not after
@@ -325,7 +325,7 @@ def _cmd_pair(args):
 def _cmd_tune(args):
     from pathlib import Path
 
-    from coopsat.tune import MARKER, TuneError, check_folder, report_lines, tune, write_tune_folder
+    from coopsat.workflows.tune import MARKER, TuneError, check_folder, report_lines, tune, write_tune_folder
 
     out = Path(args.out) if args.out else None
     if out is not None:
@@ -342,10 +342,10 @@ def _cmd_tune(args):
 
 
 def _cmd_campaign_run(args):
-    from coopsat.campaign.runner import run_campaign
+    from coopsat.workflows.campaign.runner import run_campaign
 
     if args.workers is not None and args.workers < 1:
-        from coopsat.campaign.spec import CampaignError
+        from coopsat.workflows.campaign.spec import CampaignError
 
         raise CampaignError(f"--workers {args.workers}: must be at least 1")
     out = run_campaign(args.file, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
@@ -355,7 +355,7 @@ def _cmd_campaign_run(args):
 
 
 def _cmd_campaign_replay(args):
-    from coopsat.campaign.runner import replay
+    from coopsat.workflows.campaign.runner import replay
 
     stored, replayed, identical = replay(args.dir, args.run_id)
     print(f"run {args.run_id}: {'identical to the stored result, bit for bit' if identical else 'DIFFERS from the stored result'}")
@@ -366,14 +366,14 @@ def _cmd_campaign_replay(args):
 
 
 def _cmd_campaign_report(args):
-    from coopsat.campaign.report import write_report
+    from coopsat.workflows.campaign.report import write_report
 
     print(f"wrote {write_report(args.dir)}")
     return 0
 
 
 def _cmd_bench(args):
-    from coopsat.bench import run_benchmarks
+    from coopsat.workflows.bench import run_benchmarks
 
     run_benchmarks(sizes=args.sizes, steps=args.steps, batch=args.batch, native=not args.no_native)
     return 0

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from coopsat.campaign.runner import read_results, replay
+from coopsat.workflows.campaign.runner import read_results, replay
 from coopsat.cli import EXIT_BAD_INPUT, main
 
 BIN = Path(sys.executable).parent
@@ -394,7 +394,7 @@ def test_finished_batches_are_released_on_the_worker_as_they_are_written(work, t
     so far. (Releases travel to the worker asynchronously: each count is polled for up to 5 s.)"""
     from distributed import default_client
 
-    import coopsat.campaign.runner as runner
+    import coopsat.workflows.campaign.runner as runner
 
     real_write, held = runner.write_batch, []
 
@@ -418,7 +418,7 @@ def test_finished_batches_are_released_on_the_worker_as_they_are_written(work, t
 def test_local_workers_run_on_one_cpu_device():
     """Each local worker is one process on one CPU device (its batches are not split between
     cores, so a stored result does not depend on the machine's core count)."""
-    from coopsat.campaign.runner import client_for
+    from coopsat.workflows.campaign.runner import client_for
 
     def devices():
         from coopsat import _jax  # noqa: F401

@@ -13,7 +13,7 @@ import math
 import pytest
 
 from coopsat.cli import EXIT_BAD_INPUT, main
-from coopsat.sweep import split_values
+from coopsat.workflows.sweep import split_values
 
 SCENARIO = "consensus-sync-a-stable"
 SHORT = "sim.t_final_s=0.5"
@@ -81,7 +81,7 @@ def test_plots_are_written(swept):
 
 
 def test_a_swept_run_equals_coopsat_run(swept, tmp_path):
-    from coopsat.pipeline import run_scenario
+    from coopsat.workflows.pipeline import run_scenario
 
     _, _, rows, _ = swept
     result = run_scenario(SCENARIO, out_dir=tmp_path / "r", overrides=[SHORT, "controller.alpha=2", f"sensors={GYRO}"], figures=False)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from coopsat.environment.torques import gravity_gradient_torque_b
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 
 REFERENCE = Path(__file__).resolve().parents[1] / "data" / "basilisk_gravity_gradient.csv"

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from coopsat.geometry.frames import eci_to_lvlh
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 
 REFERENCE = Path(__file__).resolve().parents[1] / "data" / "basilisk_orbit_j2_pair.csv"

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 
 REFERENCE = Path(__file__).resolve().parents[1] / "data" / "basilisk_torque_free_sat1.csv"

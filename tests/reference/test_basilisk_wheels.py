@@ -18,7 +18,7 @@ import pytest
 
 from coopsat._parts import OutputSpec, part
 from coopsat.actuators.pulses import Pulse
-from coopsat.pipeline import prepare
+from coopsat.workflows.pipeline import prepare
 from coopsat.scenarios.load import load_scenario
 from coopsat.sim.engine import simulate
 from coopsat.sim.system import as_arrays

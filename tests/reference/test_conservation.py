@@ -4,7 +4,7 @@ import numpy as np
 
 from coopsat.analysis.metrics import inertial_angular_momentum_nms
 from coopsat.dynamics.translational import specific_energy_j_kg
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 
 

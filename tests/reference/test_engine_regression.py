@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 
 DATA = np.load(Path(__file__).resolve().parents[1] / "data" / "engine_regression_f0d461c.npz")

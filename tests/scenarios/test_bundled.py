@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from coopsat.pipeline import run_scenario
+from coopsat.workflows.pipeline import run_scenario
 from coopsat.scenarios.load import bundled_names, load_scenario
 
 SHORT = {"orbit-two-body": 100.0, "rigid-body-free": 2.0}

@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("numba")
 
-from coopsat.bench import bench_system  # noqa: E402
+from coopsat.workflows.bench import bench_system  # noqa: E402
 from coopsat.sim.engine import simulate  # noqa: E402
 
 TICKS = 300

@@ -74,7 +74,7 @@ def read_raw(name_or_path, _depth=0):
 
     A top-level ``extends = "other"`` (a bundled name, or a ``.toml`` path relative to this
     file) starts from that scenario and overlays this file on it (:func:`deep_merge`), so a
-    variant states only what it changes.
+    variant states only what it changes. A :class:`coopsat.Scenario` is taken as it is.
 
     Returns
     -------
@@ -82,6 +82,10 @@ def read_raw(name_or_path, _depth=0):
     default_name : str
         The file's stem (used when the file sets no ``name``).
     """
+    from coopsat.scenarios.document import Scenario as Document
+
+    if isinstance(name_or_path, Document):
+        return name_or_path.to_dict(), name_or_path.name
     path = Path(name_or_path)
     # A bare name is a bundled scenario even if a folder of that name is lying around.
     if path.suffix == ".toml" or path.is_file() or len(path.parts) > 1:
@@ -89,21 +93,33 @@ def read_raw(name_or_path, _depth=0):
         origin, default_name = clip_path(path), path.stem
     else:
         text, origin, default_name = bundled_text(str(name_or_path)), clip_echo(name_or_path), str(name_or_path)
+    raw = parse_toml(text, origin)
+    return resolve_extends(raw, path.parent if path.suffix == ".toml" else None, origin, _depth), default_name
+
+
+def parse_toml(text, origin="scenario"):
+    """A scenario's TOML text as a dict; one line naming ``origin`` when it is not TOML."""
     try:
-        raw = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise ScenarioError(f"{origin}: not valid TOML: {clip_echo(err, 4 * ECHO_MAX)}") from None
+
+
+def resolve_extends(raw, folder=None, origin="scenario", _depth=0):
+    """``raw`` overlaid on the scenario its ``extends`` names (a bundled name, or a ``.toml``
+    path relative to ``folder``, default the working folder); ``raw`` itself when it has none."""
+    raw = dict(raw)
     base = raw.pop("extends", None)
-    if base is not None:
-        if not isinstance(base, str):
-            raise ScenarioError(f"{origin}: extends must name a bundled scenario or a .toml file")
-        if _depth >= 8:
-            raise ScenarioError(f"{origin}: extends chain deeper than 8 (a cycle?)")
-        base_path = path.parent / base if path.suffix == ".toml" and base.endswith(".toml") else base
-        base_raw, _ = read_raw(base_path, _depth=_depth + 1)
-        base_raw.pop("name", None)
-        raw = deep_merge(base_raw, raw)
-    return raw, default_name
+    if base is None:
+        return raw
+    if not isinstance(base, str):
+        raise ScenarioError(f"{origin}: extends must name a bundled scenario or a .toml file")
+    if _depth >= 8:
+        raise ScenarioError(f"{origin}: extends chain deeper than 8 (a cycle?)")
+    base_path = Path(folder) / base if folder is not None and base.endswith(".toml") else base
+    base_raw, _ = read_raw(base_path, _depth=_depth + 1)
+    base_raw.pop("name", None)
+    return deep_merge(base_raw, raw)
 
 
 def _kind_changes(base_table, new_kind_or_table):
@@ -137,38 +153,60 @@ def parse_value(text):
 
 
 def apply_override(raw, assignment):
-    """Apply one ``key.path=value`` override in place.
-
-    ``spacecraft.2.omega_b_rad_s=[0, 0, 0]`` addresses the third spacecraft (indices from 0);
-    tables that do not exist yet are created. Setting a table's ``kind`` to another value
-    clears the table's other fields first (set them after it).
-    """
+    """Apply one ``key.path=value`` override in place (the value parsed as TOML,
+    :func:`parse_value`); :func:`set_path` does the rest."""
     if "=" not in assignment:
         raise ScenarioError(f"--set {clip_echo(assignment)}: expected key.path=value")
     key, value = assignment.split("=", 1)
-    parts = [p for p in key.strip().split(".") if p]
+    set_path(raw, key, parse_value(value.strip()), what="--set ")
+
+
+def set_path(raw, key, value, what=""):
+    """Set the field at ``key`` (``"controller.alpha"``) of a raw scenario dict to ``value``, in place.
+
+    ``spacecraft.2.omega_b_rad_s`` addresses the third spacecraft (indices from 0); tables
+    that do not exist yet are created. Setting a table's ``kind`` to another value clears the
+    table's other fields first (set them after it).
+
+    Parameters
+    ----------
+    raw : dict
+        The scenario as parsed from TOML.
+    key : str
+        Dotted path.
+    value : object
+        A TOML value: number, boolean, string, list, dict.
+    what : str
+        Prefix of error messages (``"--set "`` for the command line).
+
+    Raises
+    ------
+    ScenarioError
+        One line naming the key: an empty key, an index past a list's end, a value in the way.
+    """
+    parts = [p for p in str(key).strip().split(".") if p]
     if not parts:
-        raise ScenarioError(f"--set {clip_echo(assignment)}: empty key")
+        raise ScenarioError(f"{what}{clip_echo(key)}: empty key")
     node = raw
     for depth, part in enumerate(parts[:-1]):
         where = ".".join(parts[: depth + 1])
         if isinstance(node, list):
             if not part.isdigit() or int(part) >= len(node):
-                raise ScenarioError(f"--set {clip_echo(key)}: {clip_echo(where)} is not an index of a list of {len(node)}")
+                raise ScenarioError(f"{what}{clip_echo(key)}: {clip_echo(where)} is not an index of a list of {len(node)}")
             node = node[int(part)]
         else:
             node = node.setdefault(part, {})
         if not isinstance(node, (dict, list)):
-            raise ScenarioError(f"--set {clip_echo(key)}: {clip_echo(where)} is a value, not a table")
+            raise ScenarioError(f"{what}{clip_echo(key)}: {clip_echo(where)} is a value, not a table")
     last = parts[-1]
-    if last == "kind" and isinstance(node, dict) and _kind_changes(node, parse_value(value.strip())):
+    if last == "kind" and isinstance(node, dict) and _kind_changes(node, value):
         node.clear()  # another kind is another implementation: start its table afresh (as extends does)
     if isinstance(node, list):
         if not last.isdigit() or int(last) >= len(node):
-            raise ScenarioError(f"--set {clip_echo(key)}: {clip_echo(last)} is not an index of a list of {len(node)}")
-        node[int(last)] = parse_value(value.strip())
+            raise ScenarioError(f"{what}{clip_echo(key)}: {clip_echo(last)} is not an index of a list of {len(node)}")
+        node[int(last)] = value
     else:
-        node[last] = parse_value(value.strip())
+        node[last] = value
 
 
 def _merge_defaults(raw):

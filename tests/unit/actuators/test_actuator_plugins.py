@@ -8,7 +8,7 @@ import pytest
 
 from coopsat.analysis.metrics import inertial_angular_momentum_nms
 from coopsat.geometry.frames import lvlh_dcm
-from coopsat.pipeline import prepare
+from coopsat.workflows.pipeline import prepare
 from coopsat.scenarios.load import ScenarioError, load_scenario
 
 A_M = 6878137.0  # 500 km circular orbit

@@ -15,7 +15,7 @@ from coopsat.actuators.magnetorquers import Magnetorquers, magnetorquer_torque_b
 from coopsat.analysis.metrics import inertial_angular_momentum_nms
 from coopsat.astro.earth import OMEGA_EARTH_RAD_S, gmst_rad, julian_date_utc
 from coopsat.dynamics.plant import PlantState
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import bundled_text, load_scenario
 from earth_reference import hand_dipole_eci, to_body
 

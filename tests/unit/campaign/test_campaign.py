@@ -1,7 +1,7 @@
 """Campaign files without Dask: the dispersions' statistics, seeds, poisoned runs failing alone,
 and every bundled campaign.
 
-References are independent of :mod:`coopsat.campaign`: the undispersed values are read from the
+References are independent of :mod:`coopsat.workflows.campaign`: the undispersed values are read from the
 resolved scenario TOML, the draws are tested against scipy.stats distributions (the master
 seeds are fixed, so the p-values are fixed numbers, not a source of flakiness), and the values
 a run stores are checked against the scenario that its ``--set`` strings build.
@@ -17,8 +17,8 @@ import pytest
 import tomli_w
 from scipy import stats
 
-from coopsat.campaign.runner import run_batch_rows
-from coopsat.campaign.spec import (
+from coopsat.workflows.campaign.runner import run_batch_rows
+from coopsat.workflows.campaign.spec import (
     bundled_campaign,
     bundled_campaign_names,
     draw_run,
@@ -362,8 +362,8 @@ def test_no_bundled_campaign_draws_an_invalid_scenario(tmp_path):
     """Every drawn run of every bundled campaign (a sample of 25 each) is a scenario the
     builder accepts: none ships runs that fail by construction (a delay that is not a whole
     number of control periods, a body that breaks the triangle inequality)."""
-    from coopsat.campaign.runner import make_job, run_overrides
-    from coopsat.pipeline import prepare
+    from coopsat.workflows.campaign.runner import make_job, run_overrides
+    from coopsat.workflows.pipeline import prepare
 
     for name in bundled_campaign_names():
         job = make_job(name)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from coopsat.analysis.papers.leader_follower_2018 import steady_lag_rad
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.plugins.leader_follower import follower_hops
 from coopsat.scenarios.build import DesignWarning
 from coopsat.scenarios.load import ScenarioError, load_scenario

@@ -8,7 +8,7 @@ import pytest
 from coopsat.astro.kepler import elements_to_rv
 from coopsat.control.pid import attitude_error_vector
 from coopsat.geometry.frames import eci_to_lvlh, lvlh_to_eci
-from coopsat.pipeline import prepare
+from coopsat.workflows.pipeline import prepare
 from coopsat.scenarios.load import ScenarioError, load_scenario
 
 MU = 3.986004418e14

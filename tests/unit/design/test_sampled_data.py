@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from coopsat.design.sampled_data import analyze_sampled_data, linearize_consensus_loop, period_map
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 
 

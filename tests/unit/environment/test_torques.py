@@ -4,7 +4,7 @@ import jax
 import numpy as np
 
 from coopsat.environment.torques import RandomTorque
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 
 

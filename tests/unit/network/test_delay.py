@@ -11,7 +11,7 @@ import jax
 import numpy as np
 import pytest
 
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.build import DesignWarning
 from coopsat.scenarios.load import ScenarioError, load_scenario
 

@@ -10,7 +10,7 @@ from coopsat.astro.constants import MU_EARTH_M3_S2
 from coopsat.astro.kepler import elements_to_rv
 from coopsat.dynamics.plant import PlantState
 from coopsat.geometry.frames import eci_to_lvlh
-from coopsat.pipeline import prepare
+from coopsat.workflows.pipeline import prepare
 from coopsat.scenarios.load import ScenarioError, load_scenario
 from coopsat.sensors.parts import RelativeNavigation
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from coopsat.geometry.quaternion import quat_error, quat_vector
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import ScenarioError, load_scenario
 from coopsat.sensors.noise import ARCSEC_RAD, star_tracker_measure
 from coopsat.sensors.parts import Gyro

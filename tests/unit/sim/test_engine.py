@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 from coopsat.sim.engine import NonFiniteStateError, simulate
 from coopsat.sim.system import stack_systems

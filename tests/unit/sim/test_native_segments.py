@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from coopsat.pipeline import prepare
+from coopsat.workflows.pipeline import prepare
 from coopsat.scenarios.load import load_scenario
 from coopsat.sim.engine import _sorted_rows, run_samples, simulate
 from coopsat.sim.native.rigid_body import SEGMENTS_TARGET

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 from coopsat.sim import engine
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from coopsat.network.topology import complete_adjacency, links_for_schedule, ring_adjacency
-from coopsat.pipeline import prepare, simulate_built
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import ScenarioError, load_scenario
 
 RING_A = '[{t_s = 2.0, kind = "edges", edges = [["sat1","sat2",1.0],["sat2","sat3",0.5],["sat3","sat4",0.5],["sat4","sat5",0.5],["sat5","sat1",0.5]]}]'

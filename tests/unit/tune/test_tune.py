@@ -19,10 +19,10 @@ import jax
 import jax.numpy as jnp
 
 from coopsat.cli import main
-from coopsat.pipeline import prepare
+from coopsat.workflows.pipeline import prepare
 from coopsat.scenarios.load import load_scenario
 from coopsat.sim.engine import run_samples
-from coopsat.tune import Spec, constraint_met, loss_function, minimise, resolve_params, tune
+from coopsat.workflows.tune import Spec, constraint_met, loss_function, minimise, resolve_params, tune
 
 
 def _objective(built, params, metric):
@@ -267,7 +267,7 @@ def test_graph_weights_enter_the_links_as_the_builder_puts_them():
     """network.edges: the tunable's traced weights equal those the scenario builder makes from
     the same edge list (an independent path: adjacency, then links), and the tuned file sets
     them where the graph is."""
-    from coopsat.tune import _overrides, with_params
+    from coopsat.workflows.tune import _overrides, with_params
 
     built = prepare(load_scenario("consensus-sync-a-saturated", ["sim.t_final_s=1"]))
     (p,) = resolve_params(built, ["network.edges"])

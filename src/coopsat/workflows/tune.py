@@ -25,7 +25,7 @@ import numpy as np
 
 from coopsat.analysis.surrogates import surrogates
 from coopsat.folders import atomic_folder, check_folder, json_ready
-from coopsat.pipeline import analyse, prepare, simulate_built
+from coopsat.workflows.pipeline import analyse, prepare, simulate_built
 from coopsat.plugins import plugin_for
 from coopsat.scenarios.build import scenario_tables
 from coopsat.scenarios.load import ScenarioError, clip_echo, load_scenario, resolved_toml

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.campaign.spec import (
+from coopsat.workflows.campaign.spec import (
     Campaign,
     CampaignError,
     base_values,
@@ -85,10 +85,10 @@ def run_batch(job, run_ids):
     None). Executed on a Dask worker; never raises for a failing run."""
     import tempfile
 
-    from coopsat.pipeline import analyse, prepare
+    from coopsat.workflows.pipeline import analyse, prepare
     from coopsat.scenarios.load import ScenarioError, load_scenario
     from coopsat.sim.engine import NonFiniteStateError
-    from coopsat.sweep import simulate_runs
+    from coopsat.workflows.sweep import simulate_runs
 
     campaign = Campaign.model_validate(job["campaign"])
     seqs = run_seed_sequences(campaign.master_seed, campaign.runs)
@@ -219,7 +219,7 @@ def _check_timeseries(campaign, ref):
     """Every output named in ``timeseries`` is one the scenario records."""
     if not campaign.timeseries:
         return
-    from coopsat.pipeline import prepare
+    from coopsat.workflows.pipeline import prepare
     from coopsat.scenarios.load import load_scenario
     from coopsat.sim.engine import output_specs
 

@@ -4,7 +4,7 @@ weight and compared at matched settling time (SPEC §4).
 For every scenario given and every set of relative coordinates asked for, the controller's
 Bryson force scale (``controller.force_scale_n``, the weight that trades speed for fuel) is
 swept; the runs of one series share a structure and run as one vmapped batch
-(:func:`coopsat.sweep.run_batch`). Each run's settling time and fuel come from the paper
+(:func:`coopsat.workflows.sweep.run_batch`). Each run's settling time and fuel come from the paper
 module's metrics on the exact closed loop (dead zone, saturation, noise, solar pressure), so
 the fronts are the tool's honest figures, not a linear model's. Designs are compared by the
 fuel of their Pareto fronts at the same settling time
@@ -47,9 +47,9 @@ def sweep(ref, scales_n, coordinates, progress=False):
         ``histories``: per run, ``t_s`` and the cumulative fuel against time (``fuel_l1_ns``
         (T, 3) per axis, ``fuel_l2_ns`` (T,)).
     """
-    from coopsat.pipeline import analyse
+    from coopsat.workflows.pipeline import analyse
     from coopsat.scenarios.load import load_scenario
-    from coopsat.sweep import run_batch
+    from coopsat.workflows.sweep import run_batch
 
     kind = load_scenario(ref).controller.kind
     if kind != "formation-observer":
@@ -109,7 +109,7 @@ def compare(rows, fuel="fuel_l1_ns"):
 def tune_front(ref, rows, coordinates, max_iter=100, report=None):
     """Tune a linear gain for least L1 fuel at each settling time of an LQR series' front.
 
-    For every front point (force scale s, settling time T) :func:`coopsat.tune.tune` starts
+    For every front point (force scale s, settling time T) :func:`coopsat.workflows.tune.tune` starts
     from that Riccati gain (decentralized: every spacecraft from its own observer, the LMI
     design's information) and minimises ``fuel_l1_ns`` subject to ``settling_time_s ≤ T`` and
     the closed-loop spectral radius ≤ :data:`TUNED_RADIUS_MAX`, on the smoothed thrusters;
@@ -122,7 +122,7 @@ def tune_front(ref, rows, coordinates, max_iter=100, report=None):
         ``design`` = "tuned", ``coordinates``, ``force_scale_n``, ``start_fuel_l1_ns``,
         ``start_settling_time_s``, ``tune_iterations``, ``tune_s``, and the exact metrics.
     """
-    from coopsat.tune import tune
+    from coopsat.workflows.tune import tune
 
     series = [r for r in rows if r["design"] == "lqr" and r["coordinates"] == coordinates]
     settle = [_finite(r["settling_time_s"]) for r in series]
@@ -147,7 +147,7 @@ def tune_front(ref, rows, coordinates, max_iter=100, report=None):
 def bound_curve(ref, settle_s):
     """The rest-to-rest lower bound on L1 fuel (:func:`formation_fuel_bound_ns`) of a
     scenario's reconfiguration at each settling time, with its thrust limit and tolerance."""
-    from coopsat.pipeline import prepare
+    from coopsat.workflows.pipeline import prepare
     from coopsat.scenarios.load import load_scenario
 
     built = prepare(load_scenario(ref))

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.campaign.runner import MARKER, read_results, read_series
-from coopsat.campaign.spec import CampaignError
+from coopsat.workflows.campaign.runner import MARKER, read_results, read_series
+from coopsat.workflows.campaign.spec import CampaignError
 from coopsat.folders import atomic_folder
 
 FIXED = ("run_id", "status", "reason", "seed", "params")

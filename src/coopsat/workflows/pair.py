@@ -19,9 +19,9 @@ import numpy as np
 
 from coopsat.analysis.papers import paper_modules
 from coopsat.folders import atomic_folder, check_folder, json_ready
-from coopsat.pipeline import analyse
+from coopsat.workflows.pipeline import analyse
 from coopsat.scenarios.load import load_scenario
-from coopsat.sweep import run_batch
+from coopsat.workflows.sweep import run_batch
 
 MARKER = "pair.json"
 """Written into every pair folder: only a folder holding it is ever replaced."""

@@ -7,7 +7,7 @@ so a failed run (bad input, non-finite state) leaves nothing half-written.
 import importlib
 import json
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -20,7 +20,63 @@ from coopsat.analysis.metrics import run_metrics
 from coopsat.analysis.papers import explainers, paper_metrics, paper_modules, paper_series
 from coopsat.folders import atomic_folder, check_folder, json_ready
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
-from coopsat.scenarios.load import ScenarioError, load_scenario, resolved_toml
+from coopsat.scenarios.load import ScenarioError, resolved_toml
+
+
+@dataclass(frozen=True)
+class Result:
+    """One finished run, in memory (:func:`run`); :meth:`save` writes the run folder.
+
+    Attributes
+    ----------
+    scenario : coopsat.Scenario
+        What ran (the scenario as given, its seed included).
+    dataset : xarray.Dataset
+        The record: what ``result.nc`` holds (docs/scenarios.md lists the variables; SI units,
+        quaternions scalar first), with the resolved scenario, the seed and every design-time
+        check in its attributes.
+    metrics : dict of str -> float or None
+        ``metrics.json``: named numbers, unit at the end of each name; None for a time never
+        reached.
+    comparison : list of dict
+        ``comparison.json``: per ``[[published]]`` number, ours, the verdict and its reason
+        (empty when the scenario quotes none).
+    checks : dict of str -> coopsat.plugins.DesignCheck
+        The design-time checks by name, each with ``ok``, its one-line ``note``, its
+        ``metrics`` and ``detail`` (the certificate: spectral radius, margins, LMI results…).
+    warnings : list of str
+        The checks that failed, one line each (the CLI prints them before the run).
+    compile_s, run_s : float
+        Wall time compiling and running the closed loop, s.
+    """
+
+    scenario: object
+    dataset: object
+    metrics: dict
+    comparison: list
+    checks: dict
+    warnings: list
+    compile_s: float
+    run_s: float
+    built: object = field(default=None, repr=False, compare=False)
+    """The built run (:class:`coopsat.scenarios.build.Built`): the compiled system's parts, for
+    figures and further analysis."""
+
+    def save(self, out_dir, *, figures=True):
+        """Write the run folder ``coopsat run`` writes (result.nc, metrics.json,
+        comparison.{md,json}, figures, run.json), atomically; returns its path.
+
+        An existing folder is replaced only if it is a run folder (it holds ``run.json``).
+
+        Raises
+        ------
+        RunFolderError
+        """
+        return write_run_folder(Path(out_dir), self.built, self.dataset, self.metrics, self.comparison, figures=figures)
+
+    def figures(self):
+        """The run's figures (matplotlib), keyed by the file stem ``save`` gives them."""
+        return run_figures(self.built, self.dataset)
 
 
 @dataclass
@@ -168,14 +224,22 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
             (tmp / "comparison.json").write_text(json.dumps(json_ready(rows), indent=2, allow_nan=False) + "\n")
             (tmp / "comparison.md").write_text(comparison_markdown(rows, built.scenario.name))
         if figures:
-            from coopsat.plots.figures import save_figures, standard_figures
+            from coopsat.plots.figures import save_figures
 
-            a = built.scenario.analysis
-            save_figures(standard_figures(ds, a.sync_attitude_deg, a.sync_rate_rad_s), tmp)
-            for module in paper_modules(built):
-                if hasattr(module, "FIGURES"):
-                    save_figures(importlib.import_module(module.FIGURES).figures(ds, built), tmp)
+            save_figures(run_figures(built, ds), tmp)
     return out_dir
+
+
+def run_figures(built, ds):
+    """Every figure of a run, keyed by file stem: the standard ones and its papers'."""
+    from coopsat.plots.figures import standard_figures
+
+    a = built.scenario.analysis
+    figures = standard_figures(ds, a.sync_attitude_deg, a.sync_rate_rad_s)
+    for module in paper_modules(built):
+        if hasattr(module, "FIGURES"):
+            figures.update(importlib.import_module(module.FIGURES).figures(ds, built))
+    return figures
 
 
 ENGINE_RATE_SC_STEPS_S = 2e6
@@ -217,8 +281,53 @@ def check_run_length(built, allow_long=False):
     return estimate
 
 
+def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=None):
+    """Run a scenario in memory: build, design checks, closed loop, metrics, comparison.
+
+    Parameters
+    ----------
+    scenario : coopsat.Scenario, str or Path
+        A scenario, or a bundled scenario's name or a TOML file's path.
+    seed : int, optional
+        Replaces the scenario's seed.
+    progress : bool
+        Progress bar (shown once a run has taken 2 s).
+    allow_long : bool
+        Run even when the estimated wall time is above :data:`LONG_RUN_S`.
+    on_warning : callable, optional
+        Called with each failed design check (one line) before the simulation starts.
+
+    Returns
+    -------
+    Result
+        Nothing is written; :meth:`Result.save` writes the run folder.
+
+    Raises
+    ------
+    ScenarioError
+        A scenario that cannot be loaded, validated or built, or a run too long.
+    coopsat.sim.engine.NonFiniteStateError
+        The state turned NaN or infinite.
+    """
+    from coopsat.scenarios.document import Scenario as Document
+
+    doc = scenario if isinstance(scenario, Document) else Document.load(scenario)
+    if seed is not None:
+        doc = doc.with_seed(seed)
+    built = prepare(doc.model)
+    check_run_length(built, allow_long)
+    for note in built.warnings:
+        if on_warning is not None:
+            on_warning(note)
+    _interrupt.check()
+    ds, out = simulate_built(built, progress=progress)
+    metrics, rows = analyse(built, ds)
+    checks = {c.name: c for c in built.checks.values()}
+    return Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built)
+
+
 def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, on_warning=None, allow_long=False):
-    """Run a bundled scenario or scenario file and write its run folder.
+    """Run a bundled scenario or scenario file and write its run folder (``coopsat run``).
 
     Parameters
     ----------
@@ -241,17 +350,12 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
     -------
     RunResult
     """
-    scenario = load_scenario(ref, overrides)
-    target = Path(out_dir) if out_dir is not None else Path("runs") / scenario.name
+    from coopsat.scenarios.document import with_overrides
+
+    doc = with_overrides(ref, overrides)
+    target = Path(out_dir) if out_dir is not None else Path("runs") / doc.name
     check_run_folder(target)
-    built = prepare(scenario)
-    check_run_length(built, allow_long)
-    for note in built.warnings:
-        if on_warning is not None:
-            on_warning(note)
+    result = run(doc, progress=progress, allow_long=allow_long, on_warning=on_warning)
     _interrupt.check()
-    ds, out = simulate_built(built, progress=progress)
-    metrics, rows = analyse(built, ds)
-    _interrupt.check()
-    write_run_folder(target, built, ds, metrics, rows, figures=figures)
-    return RunResult(target, ds, metrics, rows, built.warnings, out.compile_s, out.run_s)
+    result.save(target, figures=figures)
+    return RunResult(target, result.dataset, result.metrics, result.comparison, result.warnings, result.compile_s, result.run_s)

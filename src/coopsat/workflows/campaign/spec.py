@@ -96,7 +96,7 @@ def bundled_campaign_names():
     """Names of the campaigns shipped with coopsat."""
     from importlib.resources import files
 
-    return sorted(p.name[:-5] for p in files("coopsat.campaign").joinpath("bundled").iterdir() if p.name.endswith(".toml"))
+    return sorted(p.name[:-5] for p in files("coopsat.workflows.campaign").joinpath("bundled").iterdir() if p.name.endswith(".toml"))
 
 
 def bundled_campaign(name_or_path):
@@ -105,7 +105,7 @@ def bundled_campaign(name_or_path):
 
     path = Path(name_or_path)
     if not path.exists() and str(name_or_path) in bundled_campaign_names():
-        return Path(str(files("coopsat.campaign").joinpath("bundled", f"{name_or_path}.toml")))
+        return Path(str(files("coopsat.workflows.campaign").joinpath("bundled", f"{name_or_path}.toml")))
     return path
 
 

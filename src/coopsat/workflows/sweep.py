@@ -5,7 +5,7 @@ length are zipped (run k takes the k-th value of each). With ``seeds`` = K every
 with the seeds ``seed … seed + K − 1`` and is summarised by the mean and the max of each metric
 over them. The runs are grouped by compiled structure (:func:`group_runs`) and each
 group runs as one vmapped batch (:func:`run_batch`, also the engine of
-:mod:`coopsat.tradeoff`); every run's metrics are those ``coopsat run`` reports for the same
+:mod:`coopsat.workflows.tradeoff`); every run's metrics are those ``coopsat run`` reports for the same
 overrides.
 """
 
@@ -20,7 +20,7 @@ import numpy as np
 from coopsat import _interrupt
 from coopsat.analysis.papers import paper_series
 from coopsat.folders import atomic_folder, check_folder, json_ready
-from coopsat.pipeline import analyse, metric_names, prepare
+from coopsat.workflows.pipeline import analyse, metric_names, prepare
 from coopsat.scenarios.load import clip_echo, load_scenario, parse_value
 
 MARKER = "sweep.json"
@@ -175,7 +175,7 @@ def prepare_runs(ref, override_lists):
     """Load, validate and build the scenario once per override list (nothing runs).
 
     The runs are analysed without comparing with published values, so their ``[[published]]``
-    names are not checked (:func:`~coopsat.pipeline.prepare`: the check traces the engine,
+    names are not checked (:func:`~coopsat.workflows.pipeline.prepare`: the check traces the engine,
     2 s a run of ``observation-cooperative``)."""
     return [prepare(load_scenario(ref, overrides), check_published=False) for overrides in override_lists]
 

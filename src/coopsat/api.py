@@ -1,0 +1,300 @@
+"""The public Python API: what the ``coopsat`` command does, callable with the same objects.
+
+Everything here takes a :class:`~coopsat.scenarios.document.Scenario` (or a bundled name or a
+TOML path) and returns a named result; nothing is written unless a folder is asked for.
+docs/api.md lists the public names; ``coopsat/__init__.py`` loads them lazily.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from coopsat.workflows.pipeline import Result, analyse, prepare
+from coopsat.workflows.pipeline import run as _run_one
+from coopsat.scenarios.document import Scenario
+
+ScenarioLike = Scenario | str | Path
+"""A :class:`Scenario`, a bundled scenario's name, or a TOML file's path."""
+
+
+def _document(scenario: ScenarioLike) -> Scenario:
+    return scenario if isinstance(scenario, Scenario) else Scenario.load(scenario)
+
+
+def configure(*, float64: bool = True, unrolled_threefry: bool = True, compilation_cache: bool | str = False) -> None:
+    """Choose what coopsat changes in this process's JAX (docs/api.md, "Your process").
+
+    Importing coopsat changes nothing. The first build or run turns on ``jax_enable_x64``
+    and, on the CPU, lowers small Threefry hashes unrolled (the same random bits, faster);
+    call this before it to decline either, or to turn on JAX's persistent compilation cache.
+
+    Parameters
+    ----------
+    float64 : bool
+        Turn on ``jax_enable_x64`` (process-wide). The closed loop integrates attitude to
+        1e-12: without float64, results are float32 and do not meet the documented accuracy.
+    unrolled_threefry : bool
+        Lower Threefry hashes of at most 16 elements as straight-line code on the CPU
+        (2–3× faster runs that draw random numbers every period; numbers unchanged).
+    compilation_cache : bool or str
+        True: JAX's persistent compilation cache in ``$COOPSAT_JAX_CACHE`` or
+        ``~/.cache/coopsat/jax`` (what the ``coopsat`` command uses); a string: that folder.
+        Process-wide, and it caches every program, not only slow ones.
+    """
+    from coopsat import _jax
+
+    _jax.set_choices(float64=float64, unrolled_threefry=unrolled_threefry)
+    if compilation_cache:
+        import jax
+
+        settings = _jax.cache_settings()
+        if isinstance(compilation_cache, str):
+            settings["jax_compilation_cache_dir"] = compilation_cache
+        for name, value in settings.items():
+            jax.config.update(name, value)
+
+
+@dataclass(frozen=True)
+class Validation:
+    """A scenario validated and built, its design checks run; nothing simulated.
+
+    Attributes
+    ----------
+    scenario : Scenario
+    checks : dict of str -> coopsat.plugins.DesignCheck
+        Each check's ``ok``, one-line ``note``, ``metrics`` and ``detail`` (its certificate).
+    warnings : list of str
+        The checks that failed, one line each.
+    metrics : dict of str -> float
+        Numbers known before the run (stability bounds, margins).
+    estimated_run_s : float
+        Rough wall time of the closed loop, s.
+    """
+
+    scenario: Scenario
+    checks: dict
+    warnings: list
+    metrics: dict
+    estimated_run_s: float
+    built: Any = field(default=None, repr=False, compare=False)
+
+
+def validate(scenario: ScenarioLike) -> Validation:
+    """Validate and build a scenario and run its design-time checks (``coopsat validate``).
+
+    Raises
+    ------
+    ScenarioError
+        One line naming the field or the cause.
+    """
+    from coopsat.workflows.pipeline import estimated_run_s
+
+    doc = _document(scenario)
+    built = prepare(doc.model)
+    checks = {c.name: c for c in built.checks.values()}
+    return Validation(doc, checks, list(built.warnings), dict(built.design_metrics), estimated_run_s(built), built)
+
+
+def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path | None = None, figures: bool = False,
+        progress: bool = False, allow_long: bool = False) -> Result:
+    """Run one scenario (``coopsat run``), in memory.
+
+    Parameters
+    ----------
+    scenario : Scenario, str or Path
+    seed : int, optional
+        Replaces the scenario's seed.
+    out_dir : str or Path, optional
+        Also write the run folder there (as :meth:`Result.save`).
+    figures : bool
+        With ``out_dir``: write the figures too (:meth:`Result.figures` draws them any time).
+    progress : bool
+        Progress bar once a run has taken 2 s.
+    allow_long : bool
+        Run even when the estimated wall time is above half an hour.
+
+    Returns
+    -------
+    Result
+        ``dataset`` (xarray), ``metrics``, ``comparison``, ``checks``, ``save(dir)``,
+        ``figures()``.
+    """
+    result = _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long)
+    if out_dir is not None:
+        result.save(out_dir, figures=figures)
+    return result
+
+
+@dataclass(frozen=True)
+class Batch:
+    """Runs made together (:func:`run_batch`).
+
+    Attributes
+    ----------
+    results : list of Result
+        One per scenario, in order (``compile_s``/``run_s`` of each are zero: see below).
+    compile_s, run_s : float
+        Wall time compiling and running every vmapped batch, s.
+    n_batches : int
+        Compiled structures (runs that share laws, sizes and rates run as one batch).
+    """
+
+    results: list
+    compile_s: float
+    run_s: float
+    n_batches: int
+
+
+def run_batch(scenarios: Sequence[ScenarioLike], *, progress: bool = False) -> Batch:
+    """Run several scenarios, one vmapped batch per shared structure (``coopsat sweep``'s engine).
+
+    Each run's dataset and metrics are those :func:`run` gives for the same scenario (to the
+    last bits: a batch groups its floating-point sums differently). Published numbers are not
+    compared (``comparison`` is empty).
+    """
+    from coopsat.workflows.sweep import group_runs, simulate_runs
+
+    docs = [_document(s) for s in scenarios]
+    builds = [prepare(d.model, check_published=False) for d in docs]
+    datasets, compile_s, run_s = simulate_runs(builds, progress)
+    results = []
+    for doc, built, ds in zip(docs, builds, datasets):
+        metrics, _ = analyse(built, ds, compare=False)
+        checks = {c.name: c for c in built.checks.values()}
+        results.append(Result(doc, ds, metrics, [], checks, list(built.warnings), 0.0, 0.0, built))
+    return Batch(results, compile_s, run_s, len(group_runs(builds)))
+
+
+def _toml_value(value: Any) -> str:
+    """A Python value as the TOML text ``--vary`` takes (floats round-trip exactly)."""
+    import tomli_w
+
+    return tomli_w.dumps({"v": value}).split("=", 1)[1].strip()
+
+
+def sweep(scenario: ScenarioLike, vary: Mapping[str, Sequence[Any]], *, seeds: int = 1, metrics: Sequence[str] | None = None,
+          out_dir: str | Path | None = None, plots: Sequence[tuple[str, str]] = (), progress: bool = False):
+    """Run a scenario over values of fields, zipped (``coopsat sweep``).
+
+    Parameters
+    ----------
+    scenario : Scenario, str or Path
+    vary : mapping of field path -> sequence of values
+        Run k takes the k-th value of every field (all sequences of one length).
+    seeds : int
+        Runs per point, seeds ``seed … seed + seeds − 1``.
+    metrics : sequence of str, optional
+        Metrics tabulated; default every scalar metric.
+    out_dir : str or Path, optional
+        Write ``sweep.csv``, ``sweep.json`` and the ``plots`` there.
+    plots : sequence of (x, y)
+        Metric or field ``y`` against ``x``, one PNG each (need ``out_dir``).
+
+    Returns
+    -------
+    coopsat.workflows.sweep.SweepResult
+        ``runs`` (per run: fields, seed, metrics), ``points`` (mean and max over seeds),
+        ``metrics``, ``n_batches``, ``compile_s``, ``run_s``.
+    """
+    from coopsat.workflows.sweep import run_sweep
+
+    varies = [(path, [_toml_value(v) for v in values]) for path, values in vary.items()]
+    return run_sweep(_document(scenario), varies, n_seeds=seeds, metrics=list(metrics) if metrics else None,
+                     out_dir=out_dir, plots=list(plots), progress=progress)
+
+
+def pair(a: ScenarioLike, b: ScenarioLike, *, seeds: int = 3, progress: bool = False):
+    """Run two scenarios on the same seeds, so that one design change is isolated (``coopsat pair``).
+
+    Returns
+    -------
+    coopsat.workflows.pair.PairResult
+        ``metrics`` per seed for A and B, ``series`` over time, ``table()`` of B − A.
+    """
+    from coopsat.workflows.pair import run_pair
+
+    return run_pair(_document(a), _document(b), n_seeds=seeds, progress=progress)
+
+
+def tune(scenario: ScenarioLike, objective: str, params: Sequence[str], *, constraints: Sequence[str] = (), starts: int = 1,
+         polish: int = 1, max_iter: int = 50, seed: int = 0, report: Callable[[str], None] | None = None):
+    """Tune gains by gradient through the whole closed loop, then re-run exactly (``coopsat tune``).
+
+    Parameters
+    ----------
+    scenario : Scenario, str or Path
+    objective : str
+        Metric to minimise.
+    params : sequence of str
+        Field paths (``"controller.alpha"``).
+    constraints : sequence of str
+        ``"METRIC<=VALUE"`` each.
+    starts, polish, max_iter, seed
+        As ``coopsat tune``'s options (docs/tuning.md).
+    report : callable, optional
+        Receives one line per iteration (default: silent).
+
+    Returns
+    -------
+    coopsat.workflows.tune.TuneResult
+    """
+    from coopsat.workflows.tune import tune as _tune
+
+    return _tune(_document(scenario), objective, constraints=tuple(constraints), params=tuple(params), starts=starts,
+                 polish=polish, max_iter=max_iter, seed=seed, report=report or (lambda line: None))
+
+
+@dataclass(frozen=True)
+class CampaignRun:
+    """A finished (or resumed) campaign (``coopsat campaign run``).
+
+    Attributes
+    ----------
+    out_dir : Path
+        The campaign folder (Parquet per batch, resumable).
+    runs, batches, skipped_batches, failed : int
+        Runs and batches in all, batches already on disk, runs that failed.
+    wall_s : float
+        Wall time, s.
+    worker_peak_rss_mb : float or None
+    """
+
+    out_dir: Path
+    runs: int
+    batches: int
+    skipped_batches: int
+    failed: int
+    wall_s: float
+    worker_peak_rss_mb: float | None
+
+    def results(self):
+        """Every finished run's parameters and metrics, one row per run (a ``pyarrow.Table``;
+        ``.to_pandas()`` where pandas is installed)."""
+        from coopsat.workflows.campaign.runner import read_results
+
+        return read_results(self.out_dir)
+
+
+def campaign(campaign: str | Path, out_dir: str | Path, *, workers: int | None = None, scheduler: str | None = None,
+             progress: bool = False) -> CampaignRun:
+    """Run or resume a Monte Carlo campaign on Dask (docs/campaigns.md).
+
+    Parameters
+    ----------
+    campaign : str or Path
+        A bundled campaign's name or a campaign TOML file.
+    out_dir : str or Path
+        Campaign folder; a killed campaign resumes where it stopped.
+    workers : int, optional
+        Local worker processes (one CPU device each); default one.
+    scheduler : str, optional
+        ``tcp://host:port`` of a running Dask scheduler instead.
+    """
+    from coopsat.workflows.campaign.runner import run_campaign
+
+    summary = run_campaign(campaign, Path(out_dir), workers=workers, scheduler=scheduler, progress=progress)
+    return CampaignRun(Path(out_dir), **{k: summary[k] for k in ("runs", "batches", "skipped_batches", "failed", "wall_s",
+                                                                  "worker_peak_rss_mb")})

@@ -57,6 +57,13 @@ def test_values_are_typed_not_parsed(scenario):
         scenario.set("controller.alpha", "2.0")
 
 
+def test_every_bundled_scenario_loads():
+    names = coopsat.Scenario.bundled()
+    assert "consensus-sync-a" in names and len(names) >= 20
+    for name in names:
+        assert coopsat.Scenario.load(name).model.name == name
+
+
 def test_to_dict_is_a_copy(scenario):
     d = scenario.to_dict()
     d["controller"]["alpha"] = 99.0

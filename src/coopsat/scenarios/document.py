@@ -18,6 +18,7 @@ from typing import Any
 from coopsat.scenarios.load import (
     _merge_defaults,
     apply_override,
+    bundled_names,
     format_validation_error,
     parse_toml,
     read_raw,
@@ -53,6 +54,11 @@ class Scenario:
         self.model  # noqa: B018  (validate now: a bad scenario fails where it is made)
 
     # --- construction -------------------------------------------------------------------------
+
+    @staticmethod
+    def bundled() -> list[str]:
+        """Names of the bundled scenarios, sorted (``coopsat list``)."""
+        return bundled_names()
 
     @classmethod
     def load(cls, name_or_path: str | Path) -> Scenario:

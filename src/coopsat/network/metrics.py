@@ -10,15 +10,24 @@ pair {i, j} with ``A[i, j] > 0`` and ``A[j, i] > 0`` is ONE link that carries bo
 fails both ways at once); a pair heard one way only is a directed link. Weights play no part
 in the reliability or the hop counts; the algebraic connectivity uses them.
 
+The functions here take adjacency arrays. :func:`as_adjacency` turns a networkx graph (or an
+array) into one, and the result types :class:`TwoTerminalReliability` and
+:class:`TopologyMetrics` serve the public functions of :mod:`coopsat.network`, which accept
+either. Bad input raises :class:`~coopsat.network.topology.GraphError` (a ``ValueError``).
+
 Design-time code (NumPy/SciPy/networkx).
 """
 
+import math
+import numbers
+import operator
 from dataclasses import dataclass
 
+import networkx as nx
 import numpy as np
 from scipy.sparse.csgraph import shortest_path
 
-from coopsat.network.topology import laplacian, spanning_tree_roots, validate_adjacency
+from coopsat.network.topology import GraphError, laplacian, spanning_tree_roots, validate_adjacency
 
 MAX_EXACT_LINKS = 20
 """Largest number of links whose 2^m link states ``method="auto"`` enumerates exactly."""
@@ -41,9 +50,12 @@ class Reliability:
         95 % confidence interval for ``value``; both equal ``value`` when exact.
     samples : int
         Link states evaluated: 2^m when exact, the Monte Carlo sample count otherwise.
-    per_pair : ndarray, shape (n, n)
+    per_pair : ndarray, shape (n, n), read-only
         ``per_pair[i, j]`` = P(i hears j) (same orientation as the adjacency); nan on the
         diagonal.
+    std_error : float
+        Standard error of ``value``: 0 when exact; for Monte Carlo ``std(X_s) / √samples``,
+        X_s the fraction of ordered pairs connected in sampled state s.
     """
 
     value: float
@@ -52,12 +64,193 @@ class Reliability:
     ci_high: float
     samples: int
     per_pair: np.ndarray
+    std_error: float = 0.0
+
+    def __post_init__(self):
+        if isinstance(self.per_pair, np.ndarray):
+            self.per_pair.flags.writeable = False  # frozen means frozen: the array too
+
+
+@dataclass(frozen=True)
+class TwoTerminalReliability:
+    """Probability that one node hears another over independently failing links.
+
+    Attributes
+    ----------
+    value : float
+        P(target hears source, possibly relayed), in [0, 1].
+    method : str
+        "exact" (all 2^m link states enumerated) or "monte-carlo".
+    samples : int
+        Link states evaluated: 2^m when exact, the Monte Carlo sample count otherwise.
+    std_error : float
+        Standard error of ``value``: 0 when exact; for Monte Carlo the binomial one,
+        ``√(value (1 − value) / samples)``.
+    ci_low, ci_high : float
+        95 % interval ``value ± 1.96 · std_error`` clipped to [0, 1]; both equal ``value``
+        when exact (and when Monte Carlo saw the pair always, or never, connected).
+    """
+
+    value: float
+    method: str
+    samples: int
+    std_error: float
+    ci_low: float
+    ci_high: float
+
+
+@dataclass(frozen=True)
+class TopologyMetrics:
+    """Every topology metric of one graph (SPEC §2 Table 1).
+
+    Attributes
+    ----------
+    nodes : tuple
+        Node labels in index order: ``G.nodes`` order for a networkx graph, ``0 … n−1`` for
+        an adjacency array. Row/column k of ``reliability.per_pair`` is ``nodes[k]``.
+    links : int
+        Number of links m of the reliability model (a two-way pair counts once).
+    average_path_length : float
+        Mean fewest hops over ordered pairs along the information flow; ``inf`` when some
+        node cannot hear some other (see :func:`average_shortest_path`).
+    reliability : Reliability
+        Mean pairwise reliability (see :func:`mean_pairwise_reliability`).
+    algebraic_connectivity : float
+        See :func:`algebraic_connectivity`; in the units of the edge weights.
+    spanning_tree_roots : tuple
+        Labels of the nodes whose information reaches every node; empty when the graph has
+        no directed spanning tree (undirected: is disconnected).
+    """
+
+    nodes: tuple
+    links: int
+    average_path_length: float
+    reliability: Reliability
+    algebraic_connectivity: float
+    spanning_tree_roots: tuple
+
+    @property
+    def n(self) -> int:
+        """Number of nodes."""
+        return len(self.nodes)
+
+    @property
+    def spanning_tree(self) -> bool:
+        """True when some node's information reaches every node (consensus is possible)."""
+        return bool(self.spanning_tree_roots)
+
+
+def _first(mask):
+    """(i, j) of the first True entry of a 2-D mask, row-major."""
+    i, j = np.argwhere(mask)[0]
+    return int(i), int(j)
+
+
+def as_adjacency(graph):
+    """Adjacency array and node labels of a networkx graph or an adjacency array.
+
+    Parameters
+    ----------
+    graph : networkx.Graph, networkx.DiGraph or array_like, shape (n, n)
+        A networkx ``Graph`` (undirected: every edge a two-way link) or ``DiGraph`` (edge
+        u → v: information flows from u to v, v hears u), with an optional numeric edge
+        attribute ``weight`` (default 1), nodes taken in ``G.nodes`` order; or an adjacency
+        array, ``A[i, j] > 0`` iff i hears j, with the link's weight.
+
+    Returns
+    -------
+    a : ndarray of float, shape (n, n)
+        ``a[i, j]`` = weight of the link on which ``nodes[i]`` hears ``nodes[j]``, 0 if none.
+    nodes : tuple
+        Node labels in index order (``tuple(range(n))`` for an array).
+
+    Raises
+    ------
+    GraphError
+        One line naming the cause: no nodes; an array that is not square n×n or not numeric;
+        an entry that is NaN/inf, negative or on the diagonal; a self-loop; an edge weight
+        that is not a finite number > 0; a multigraph.
+    """
+    if isinstance(graph, nx.Graph):
+        return _graph_adjacency(graph)
+    try:
+        a = np.asarray(graph, dtype=float)
+    except (TypeError, ValueError) as err:
+        why = str(err).splitlines()[0]
+        raise GraphError(f"network: not a networkx graph or a numeric adjacency array ({why})") from None
+    if a.ndim != 2 or a.shape[0] != a.shape[1]:
+        raise GraphError(f"network: an adjacency array must be square n×n, got shape {a.shape}")
+    if a.shape[0] == 0:
+        raise GraphError("network: the graph has no nodes")
+    if not np.all(np.isfinite(a)):
+        i, j = _first(~np.isfinite(a))
+        raise GraphError(f"network: adjacency entry A[{i}, {j}] = {a[i, j]} is not finite")
+    if np.any(a < 0.0):
+        i, j = _first(a < 0.0)
+        raise GraphError(
+            f"network: adjacency entry A[{i}, {j}] = {a[i, j]:g} is negative (weights are >= 0, 0 for no link)"
+        )
+    if np.any(np.diag(a) != 0.0):
+        i = int(np.flatnonzero(np.diag(a))[0])
+        raise GraphError(
+            f"network: adjacency entry A[{i}, {i}] = {a[i, i]:g} is a self-loop (the diagonal must be zero)"
+        )
+    return a, tuple(range(a.shape[0]))
+
+
+def _graph_adjacency(g):
+    if g.is_multigraph():
+        raise GraphError("network: multigraphs are not supported; give a Graph or DiGraph with one edge per link")
+    nodes = tuple(g.nodes)
+    if not nodes:
+        raise GraphError("network: the graph has no nodes")
+    index = {u: k for k, u in enumerate(nodes)}
+    directed = g.is_directed()
+    arrow = "->" if directed else "--"
+    a = np.zeros((len(nodes), len(nodes)))
+    for u, v, w in g.edges(data="weight", default=1.0):
+        if u == v:
+            raise GraphError(f"network: self-loop on node {u!r} (a spacecraft does not hear itself)")
+        try:
+            weight = float(w)
+        except (TypeError, ValueError):
+            raise GraphError(f"network: edge {u!r} {arrow} {v!r} has weight {w!r}, not a number") from None
+        if not math.isfinite(weight):
+            raise GraphError(f"network: edge {u!r} {arrow} {v!r} has weight {weight}, not finite")
+        if weight <= 0.0:
+            raise GraphError(
+                f"network: edge {u!r} {arrow} {v!r} has weight {weight:g}; weights must be > 0 (remove the edge for no link)"
+            )
+        a[index[v], index[u]] = weight  # v hears u
+        if not directed:
+            a[index[u], index[v]] = weight
+    return a, nodes
+
+
+def node_index(nodes, label, role, from_array):
+    """Index of node ``label`` in ``nodes`` (see :func:`as_adjacency`); GraphError if absent.
+
+    ``role`` ("source", "target") names the argument in the message; ``from_array`` says
+    whether the graph was an array (labels are indices ``0 … n−1``).
+    """
+    if from_array:
+        try:
+            k = operator.index(label)
+        except TypeError:
+            raise GraphError(f"network: {role} {label!r} is not a node index (an int in [0, {len(nodes)}))") from None
+        if not 0 <= k < len(nodes):
+            raise GraphError(f"network: {role} {k} is out of range: the graph's nodes are 0 … {len(nodes) - 1}")
+        return k
+    try:
+        return nodes.index(label)
+    except ValueError:
+        raise GraphError(f"network: {role} {label!r} is not a node of the graph") from None
 
 
 def _adjacency(a):
     a = validate_adjacency(a)
     if a.shape[0] < 2:
-        raise ValueError(f"metrics: need at least 2 nodes for pairwise metrics, got {a.shape[0]}")
+        raise GraphError(f"metrics: need at least 2 nodes for pairwise metrics, got {a.shape[0]}")
     return a
 
 
@@ -136,19 +329,20 @@ def _state_chunks(m, n, p, method, samples, seed):
 
 
 def _choose_method(m, method, p, samples):
-    if not 0.0 <= p <= 1.0:
-        raise ValueError(f"metrics: link reliability p must be in [0, 1], got {p}")
+    """The method to run ("exact" or "monte-carlo"); GraphError (a ValueError) on bad arguments."""
+    if not (isinstance(p, numbers.Real) and 0.0 <= p <= 1.0):
+        raise GraphError(f"metrics: link reliability p must be a probability in [0, 1], got {p!r}")
     if method == "auto":
-        return "exact" if m <= MAX_EXACT_LINKS else "monte-carlo"
-    if method == "exact":
+        method = "exact" if m <= MAX_EXACT_LINKS else "monte-carlo"
+    elif method == "exact":
         if m > MAX_EXACT_LINKS:
-            raise ValueError(f"metrics: exact reliability enumerates 2^m states; m = {m} > {MAX_EXACT_LINKS}")
-        return method
+            raise GraphError(f"metrics: exact reliability enumerates 2^m states; m = {m} > {MAX_EXACT_LINKS}")
+    elif method != "monte-carlo":
+        raise GraphError(f"metrics: method must be 'auto', 'exact' or 'monte-carlo', got {method!r}")
     if method == "monte-carlo":
-        if samples < 2:
-            raise ValueError(f"metrics: Monte Carlo needs at least 2 samples, got {samples}")
-        return method
-    raise ValueError(f"metrics: method must be 'auto', 'exact' or 'monte-carlo', got {method!r}")
+        if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 2:
+            raise GraphError(f"metrics: Monte Carlo needs an integer number of samples >= 2, got {samples!r}")
+    return method
 
 
 def average_shortest_path(a):
@@ -232,8 +426,9 @@ def mean_pairwise_reliability(a, p, method="auto", samples=100_000, seed=0):
     if method == "exact":
         return Reliability(value, "exact", value, value, 1 << m, per_pair)
     std = np.sqrt(max(x_sq - x_sum**2 / samples, 0.0) / (samples - 1))
-    half = _Z95 * std / np.sqrt(samples)
-    return Reliability(value, "monte-carlo", max(0.0, value - half), min(1.0, value + half), samples, per_pair)
+    se = float(std / np.sqrt(samples))
+    half = _Z95 * se
+    return Reliability(value, "monte-carlo", max(0.0, value - half), min(1.0, value + half), int(samples), per_pair, se)
 
 
 def two_terminal_reliability(a, p, source, target, method="auto", samples=100_000, seed=0):
@@ -255,18 +450,29 @@ def two_terminal_reliability(a, p, source, target, method="auto", samples=100_00
     float
         The probability, in [0, 1]; for Monte Carlo the fraction of sampled link states in
         which ``target`` hears ``source`` (standard error ``√(v(1 − v) / samples)``).
+        :func:`two_terminal_result` returns it with its method, sample count and error.
     """
+    return two_terminal_result(a, p, source, target, method=method, samples=samples, seed=seed).value
+
+
+def two_terminal_result(a, p, source, target, method="auto", samples=100_000, seed=0):
+    """:func:`two_terminal_reliability` as a :class:`TwoTerminalReliability` (same arguments)."""
     a = _adjacency(a)
     n = a.shape[0]
     if source == target or not (0 <= source < n and 0 <= target < n):
-        raise ValueError(f"metrics: need two distinct nodes in [0, {n}), got source {source}, target {target}")
+        raise GraphError(f"metrics: need two distinct nodes in [0, {n}), got source {source}, target {target}")
     incidence = _link_incidence(a)
     m = incidence.shape[0]
     method = _choose_method(m, method, p, samples)
     total = 0.0
     for states, weights in _state_chunks(m, n, p, method, samples, seed):
         total += weights @ _reachability(states, incidence)[:, target, source]
-    return float(total)
+    value = min(1.0, max(0.0, float(total)))  # exact sums may round a hair outside [0, 1]
+    if method == "exact":
+        return TwoTerminalReliability(value, "exact", 1 << m, 0.0, value, value)
+    se = math.sqrt(value * (1.0 - value) / samples)
+    return TwoTerminalReliability(value, "monte-carlo", int(samples), se, max(0.0, value - _Z95 * se),
+                                  min(1.0, value + _Z95 * se))
 
 
 def algebraic_connectivity(a):

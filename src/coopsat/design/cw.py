@@ -10,12 +10,14 @@ specific force ``f`` (m/s², force over mass), chief on a circular orbit of mean
 The space circular formation ("cartwheel") of radius ρ, tilted 30° from the local horizontal:
 ``x = ρ cos θ``, ``y = (√3/2) ρ sin θ``, ``z = −(ρ/2) sin θ``, ``θ = n t + φ``: an exact,
 bounded solution of the unforced equations with ``|r| = ρ`` at all times.
+
+The keeping gain is the sampled LQR of this model (SPEC §2 eqs. 12–14 in discrete form, the
+command held over the period): ``coopsat.design.lqr.lqr(*cw_matrices(n), Q, R,
+discrete_dt_s=T)``.
 """
 
 import numpy as np
-from scipy.linalg import solve_discrete_are
 
-from coopsat.design.formation import discretize
 from coopsat.dynamics import cw as dynamics_cw
 
 
@@ -75,37 +77,6 @@ def cartwheel_state(rho_m, n_rad_s, t_s, phase_rad):
 def deputy_phases(psi_rad, k=3):
     """Phases ``φ_j = ψ + 2π (j − 1)/k`` of k deputies evenly spread on the circle, rad."""
     return psi_rad + 2.0 * np.pi * np.arange(k) / k
-
-
-def discrete_lqr(n_rad_s, period_s, q, r):
-    """Discrete LQR keeping gain on the CW error, sampled with a zero-order hold.
-
-    Parameters
-    ----------
-    n_rad_s, period_s : float
-    q : array_like (6, 6)
-        State weight (m⁻², s²·m⁻²).
-    r : array_like (3, 3)
-        Input weight on the specific force per period, (m/s²)⁻².
-
-    Returns
-    -------
-    k : ndarray (3, 6)
-        ``f = −k e``, specific force held over the period, m/s².
-    p : ndarray (6, 6)
-        Stabilising solution of the discrete algebraic Riccati equation.
-
-    Notes
-    -----
-    ``Pₖ = ΦᵀPΦ − ΦᵀPΓ(R + ΓᵀPΓ)⁻¹ΓᵀPΦ + Q`` (scipy ``solve_discrete_are``); SPEC §2 eqs. 12–14
-    in discrete form, which is what a controller holding its command over a period needs.
-    """
-    phi, gam = discretize(*cw_matrices(n_rad_s), period_s)
-    q, r = np.asarray(q, dtype=float), np.asarray(r, dtype=float)
-    p = solve_discrete_are(phi, gam, q, r)
-    p = 0.5 * (p + p.T)
-    k = np.linalg.solve(r + gam.T @ p @ gam, gam.T @ p @ phi)
-    return k, p
 
 
 def cartwheel_eci(r_chief_eci, v_chief_eci, rho_m, n_rad_s, phase_rad, t_s=0.0):

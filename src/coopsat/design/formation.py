@@ -1,4 +1,7 @@
-"""Deep-space formation: model, observability decomposition, LMI and Riccati gains (SPEC §4).
+"""Deep-space formation: model, observability decomposition, LMI gains (SPEC §4).
+
+The Riccati (LQR) baseline is :func:`coopsat.design.lqr.lqr`, the package's one Riccati
+solver; the zero-order hold :func:`discretize` is :func:`coopsat.design.lqr.discretize`.
 
 Model (paper eq. (2), (18)). n spacecraft of mass m, each a double integrator in inertial axes
 (d = 2 in the plane, or 3). Absolute state ``x = [p; v]``, p = (p_1, …, p_n) spacecraft-major
@@ -76,9 +79,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm, matrix_balance, solve_continuous_are
+from numpy.typing import ArrayLike
+from scipy.linalg import matrix_balance
 
 from coopsat.design.lmi import LQR_SOLVERS, RTOL, LMIResult, MatrixInequality, solve_lmis
+from coopsat.design.lqr import discretize  # noqa: F401  (re-exported: the one zero-order hold)
 from coopsat.design.memo import by_value
 
 #: Coordinates of the observable (relative) subsystem, see :func:`relative_basis`.
@@ -823,32 +828,6 @@ def lmi_observer_gain(a, c, q, r, x0_shape=None, objective="gamma", what="observ
     return LMIGain(gain=ell, p=p, y=y, gamma=gamma, objective=objective, result=result, closed_loop_eigs=eigs)
 
 
-# --- Riccati baseline ---------------------------------------------------------------------------
-
-
-def riccati_lqr(a, b, q, r):
-    """Continuous LQR by the algebraic Riccati equation.
-
-    Parameters
-    ----------
-    a : array_like, shape (n, n)
-    b : array_like, shape (n, m)
-    q : array_like, shape (n, n)
-    r : array_like, shape (m, m)
-
-    Returns
-    -------
-    k : ndarray, shape (m, n)
-        ``u = −k x`` (opposite sign to :class:`LMIGain`).
-    x : ndarray, shape (n, n)
-        Stabilising solution of AᵀX + XA − XBR⁻¹BᵀX + Q = 0.
-    """
-    a, b, q, r = (_matrix(name, v) for name, v in (("a", a), ("b", b), ("q", q), ("r", r)))
-    x = solve_continuous_are(a, b, q, r)
-    x = 0.5 * (x + x.T)
-    return np.linalg.solve(r, b.T @ x), x
-
-
 def nonzero_setpoint_feedforward(a, b, c, k):
     """Feed-forward N of the non-zero set-point law ``u = −k x + N y_d`` (eq. 17).
 
@@ -967,33 +946,58 @@ def centroid_gain(decomp, q, r, objective="gamma", x0_shape=None, gamma_max=None
     )
 
 
-# --- discretisation -----------------------------------------------------------------------------
+# --- public name (coopsat.design) ---------------------------------------------------------------
 
 
-def discretize(a, b, period_s):
-    """Zero-order-hold discretisation ``x_{k+1} = Φ x_k + Γ u_k``.
+def formation_lmi(
+    a: ArrayLike,
+    b: ArrayLike,
+    q: ArrayLike,
+    r: ArrayLike,
+    *,
+    x0_shape: ArrayLike | None = None,
+    objective: str = "gamma",
+    gamma_max: float | None = None,
+) -> LMIGain:
+    """Guaranteed-cost state-feedback gain of the deep-space formation by the LMI of eq. (11).
 
     Parameters
     ----------
     a : array_like, shape (n, n)
+        State matrix, 1/s: e.g. ``Decomposition.a_o`` of the relative (observable) subsystem.
     b : array_like, shape (n, m)
-    period_s : float
-        Sample period, s.
+        Input matrix: e.g. ``Decomposition.b_o`` (1/kg, forces in N).
+    q : array_like, shape (n, n)
+        State weight, symmetric ⪰ 0, with (a, q) observable (e.g. :func:`bryson_weights`).
+    r : array_like, shape (m, m)
+        Input weight, symmetric ≻ 0.
+    x0_shape : array_like, shape (n, n), optional
+        X₀ of the initial-state ellipsoid ``x₀ᵀ X₀ x₀ ≤ 1`` (default identity; "gamma" only).
+    objective : {"gamma", "trace"}
+        "gamma": minimise the cost bound γ over the ellipsoid (eq. 11); "trace": minimise
+        trace P⁻¹, whose optimum is the LQR gain.
+    gamma_max : float, optional
+        Largest acceptable γ.
 
     Returns
     -------
-    phi : ndarray, shape (n, n)
-        e^{AT}.
-    gamma : ndarray, shape (n, m)
-        ∫_0^T e^{As} ds B, from the exponential of [[A, B], [0, 0]] T.
+    LMIGain
+        ``gain`` (m, n) with ``u = gain @ x`` (the paper's sign, opposite to
+        :func:`coopsat.design.lqr`), ``p``, ``y`` in physical units, the certified bound
+        ``gamma`` (J ≤ γ² over the ellipsoid; nan for "trace"), ``closed_loop_eigs`` of
+        ``a + b·gain`` (1/s, all with Re < 0), and ``result`` (the re-checked solve:
+        ``certified``, ``status``, ``solver``, per-inequality ``margins``).
+
+    Raises
+    ------
+    FormationDesignError
+        (a, b) not stabilisable, (a, q) not observable, the LMI not certified, γ above
+        ``gamma_max``, or a + b·gain not Hurwitz (a ValueError; one line).
+
+    Notes
+    -----
+    :func:`lmi_state_feedback` (eq. 11, solved in balanced units), under its public name. The
+    observer gain of eq. (12) is its dual, :func:`lmi_observer_gain`; the centroid-holding
+    gain of eq. (15), :func:`centroid_gain`.
     """
-    a, b = _matrix("a", a), _matrix("b", b)
-    n, m = b.shape
-    if a.shape != (n, n):
-        raise ValueError(f"shapes do not match: a {a.shape}, b {b.shape}")
-    if not (math.isfinite(period_s) and period_s > 0.0):
-        raise ValueError(f"period_s must be finite and > 0, got {period_s}")
-    aug = np.zeros((n + m, n + m))
-    aug[:n, :n], aug[:n, n:] = a, b
-    e = expm(aug * period_s)
-    return e[:n, :n], e[:n, n:]
+    return lmi_state_feedback(a, b, q, r, x0_shape=x0_shape, objective=objective, gamma_max=gamma_max)

@@ -69,9 +69,11 @@ Control Theory*, SIAM, 1994, §7.2 (the LQR inequality of :func:`lqr_lmi`).
 
 import math
 import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import minimize
 
 from coopsat.design.memo import by_value
@@ -922,3 +924,102 @@ def lqr_lmi(a, b, q, r, solvers=LQR_SOLVERS, rtol=RTOL):
     p_val = result.variables.get("P", np.full((n, n), np.nan))
     p_val = 0.5 * (p_val + p_val.T)
     return LQRLMIDesign(p=p_val, gain=np.linalg.solve(r, b.T @ p_val), result=result)
+
+
+# --- public names (coopsat.design) ---------------------------------------------------------------
+
+
+def certified_delay(
+    a0: ArrayLike,
+    terms: Sequence[tuple[ArrayLike, float]],
+    *,
+    alpha: float = 0.0,
+    h_hi: float | None = None,
+    tol: float = 1e-4,
+) -> CertifiedBound:
+    """Largest delay bound h certified by the delay-dependent LMI (``coopsat.design``).
+
+    Parameters
+    ----------
+    a0 : array_like, shape (n, n)
+        Undelayed state matrix, 1/s.
+    terms : sequence of (array_like (n, n), float)
+        ``(A_k, m_k)``: ``A_k`` (1/s) multiplies ``x(t − m_k d(t))``, m_k > 0 (hops).
+    alpha : float
+        Decay rate of the Lyapunov–Krasovskii functional certified alongside, 1/s (≥ 0):
+        ``V(t) ≤ V(0) e^{−αt}``.
+    h_hi : float, optional
+        Upper end of the search, s (default: doubling from 1/(‖A0‖ + Σ‖A_k‖)).
+    tol : float
+        Bisection bracket at which the search stops, s.
+
+    Returns
+    -------
+    CertifiedBound
+        ``value`` = h* (s; 0 when nothing is certified): every delay with
+        ``0 ≤ d(t) ≤ h*``, at any rate of variation, keeps the system exponentially stable.
+        ``result`` is the re-checked certificate at h* (``certified``, ``status``, ``solver``,
+        per-inequality ``margins``), ``upper`` the smallest h tried that failed.
+
+    Notes
+    -----
+    :func:`max_certified_delay` (the condition of the module docstring; Park, Ko & Jeong
+    2011), under its public name. Sufficient only: h* never exceeds the exact constant-delay
+    margin (:func:`coopsat.design.delay_margin`).
+    """
+    return max_certified_delay(a0, terms, alpha=alpha, h_hi=h_hi, tol=tol)
+
+
+def design_delay_gain(
+    system_of_gain: Callable[[np.ndarray], tuple[ArrayLike, Sequence[tuple[ArrayLike, float]]]],
+    k0: ArrayLike,
+    bounds: ArrayLike,
+    *,
+    h: float | None = None,
+    alpha: float = 0.0,
+    starts: Sequence[ArrayLike] = (),
+    max_evaluations: int = 100,
+    tol: float = 1e-3,
+) -> DelayGainDesign:
+    """Static gain with the largest certified delay bound, or decay rate at a bound (``coopsat.design``).
+
+    Parameters
+    ----------
+    system_of_gain : callable
+        ``system_of_gain(K) -> (a0, terms)``: the closed-loop system for gain K (shape of
+        ``k0``), in the form of :func:`certified_delay`.
+    k0 : array_like, shape (p, n)
+        Starting gain; its shape is the gain's.
+    bounds : array_like, shape (p·n, 2)
+        ``(low, high)`` per gain entry, row-major.
+    h : float, optional
+        None: maximise the certified delay bound h* (s) at decay rate ``alpha``. A bound (s):
+        maximise the decay rate α (1/s) certified at it.
+    alpha : float
+        Decay rate required while maximising h*, 1/s.
+    starts : sequence of array_like, shape (p, n)
+        Further starting gains.
+    max_evaluations : int
+        Gains evaluated at most.
+    tol : float
+        Bisection tolerance of each evaluation, s or 1/s.
+
+    Returns
+    -------
+    DelayGainDesign
+        ``gain``, the certified ``h`` (s) and ``alpha`` (1/s), and the proof: ``result`` (the
+        re-checked certificate), ``solver``, ``status``, ``condition``, ``reference``.
+
+    Raises
+    ------
+    ValueError
+        Bad bounds or starts, or no gain tried is certified (one line).
+
+    Notes
+    -----
+    :func:`design_gain` (derivative-free search over K, one convex problem per candidate),
+    with ``h`` keyword-only.
+    """
+    return design_gain(
+        system_of_gain, h, k0, bounds, alpha=alpha, starts=starts, max_evaluations=max_evaluations, tol=tol
+    )

@@ -26,9 +26,11 @@ alone); stability is decided on the disagreement subspace, the quotient by it.
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm, null_space
+from numpy.typing import ArrayLike
+from scipy.linalg import null_space
 from scipy.optimize import brentq
 
+from coopsat.design.lqr import discretize
 from coopsat.design.memo import by_value
 from coopsat.network.topology import laplacian
 
@@ -96,14 +98,10 @@ def period_map(a, b, g, period_s):
     Notes
     -----
     ``e^{AT}`` and ``Γ = ∫_0^T e^{As} ds B`` come from one exponential of the augmented
-    matrix ``[[A, B], [0, 0]] T`` (Van Loan, 1978).
+    matrix ``[[A, B], [0, 0]] T`` (Van Loan, 1978): :func:`coopsat.design.lqr.discretize`.
     """
-    m, p = b.shape
-    aug = np.zeros((m + p, m + p))
-    aug[:m, :m] = a
-    aug[:m, m:] = b
-    e = expm(aug * period_s)
-    return e[:m, :m] - e[:m, m:] @ g
+    phi, gam = discretize(a, b, period_s)
+    return phi - gam @ g
 
 
 def consensus_subspace(n):
@@ -244,3 +242,50 @@ def sampled_pd_radius(gain_p, gain_d, gain_i, period_s):
     if gain_i == 0.0:
         m = m[:2, :2]
     return float(np.max(np.abs(np.linalg.eigvals(m))))
+
+
+# --- public name (coopsat.design) ---------------------------------------------------------------
+
+
+def sampled_data_check(
+    inertia_kgm2: ArrayLike,
+    adjacency: ArrayLike,
+    period_s: float,
+    alpha: float,
+    beta: float,
+    *,
+    k_p: float = 0.0,
+    k_d: float = 0.0,
+    omega_ref_rad_s: ArrayLike = (0.0, 0.0, 0.0),
+) -> SampledDataStability:
+    """Stability of the consensus attitude laws (3)/(4) evaluated every ``period_s`` and held.
+
+    Parameters
+    ----------
+    inertia_kgm2 : array_like, shape (n, 3, 3)
+        Inertia of each spacecraft, kg·m².
+    adjacency : array_like, shape (n, n)
+        ``A[i, j]`` = weight with which i hears j.
+    period_s : float
+        Control period T, s.
+    alpha, beta : float
+        Consensus gains α (N·m) and β (N·m·s/rad).
+    k_p, k_d : float
+        Tracking gains K (N·m) and D (N·m·s/rad); both 0 for synchronisation (then the
+        analysis is on the disagreement subspace).
+    omega_ref_rad_s : array_like, shape (3,)
+        Reference body rate, rad/s.
+
+    Returns
+    -------
+    SampledDataStability
+        The proof: ``spectral_radius`` of the exact one-period map at ``period_s`` and
+        ``stable`` (< 1), the largest stable period ``max_stable_period_s`` (s), the
+        continuous loop's ``continuous_max_real`` (1/s) and the ``dominant`` (spacecraft,
+        axis) of the slowest mode.
+
+    Notes
+    -----
+    :func:`analyze_sampled_data`, under its public name.
+    """
+    return analyze_sampled_data(inertia_kgm2, adjacency, period_s, alpha, beta, k_p, k_d, omega_ref_rad_s)

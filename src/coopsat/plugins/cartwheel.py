@@ -92,8 +92,9 @@ def design(table, ctx):
     """
     import numpy as np
 
-    from coopsat.design.cw import cw_matrices, discrete_lqr
-    from coopsat.design.formation import bryson_weights, discretize
+    from coopsat.design.cw import cw_matrices
+    from coopsat.design.formation import bryson_weights
+    from coopsat.design.lqr import discretize, lqr
     from coopsat.plugins.force_actuators import require_translation
 
     require_translation(ctx, "controller", "cartwheel keeping")
@@ -134,7 +135,10 @@ def design(table, ctx):
         # Bryson on the force F = m f: the specific force's scale is F_scale / m.
         scales = [table.position_scale_m] * 3 + [table.velocity_scale_m_s] * 3
         q, r = bryson_weights(scales, [table.force_scale_n / mass[i]] * 3)
-        gain[i], _ = discrete_lqr(n, period, q, r)
+        try:
+            gain[i] = lqr(a_cw, b_cw, q, r, discrete_dt_s=period).K
+        except ValueError as err:
+            raise DesignError(f"controller: keeping gain of {ctx.names[i]}: {err}") from None
         radius = max(radius, float(np.abs(np.linalg.eigvals(phi - gam @ gain[i])).max()))
     adjacency = ctx.adjacencies[0]
     weight = np.where(adjacency > 0, table.deputy_weight, 0.0)

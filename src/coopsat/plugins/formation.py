@@ -151,6 +151,7 @@ def _design(table, ctx, force_scale_n=None):
     from scipy.linalg import block_diag
 
     from coopsat.design import formation as fd
+    from coopsat.design.lqr import lqr
 
     p0, target, mass, axes = _geometry(table, ctx)
     n, d = p0.shape
@@ -176,7 +177,10 @@ def _design(table, ctx, force_scale_n=None):
             k = gain.gain
             u_ff = -k @ x_ref
         else:
-            k_lqr, _ = fd.riccati_lqr(dec.a_o, dec.b_o, q, r)
+            try:
+                k_lqr = lqr(dec.a_o, dec.b_o, q, r).K
+            except ValueError as err:
+                raise fd.FormationDesignError(f"state feedback (LQR): {err}") from None
             gain = k_lqr
             k = -k_lqr
             u_ff = fd.nonzero_setpoint_feedforward(dec.a_o, dec.b_o, c_y, k_lqr) @ (c_y @ x_ref)

@@ -5,7 +5,8 @@ import pytest
 from scipy.linalg import expm
 
 from coopsat.astro.constants import MU_EARTH_M3_S2, R_EARTH_M
-from coopsat.design.cw import cartwheel_state, cw_matrices, cw_stm, deputy_phases, discrete_lqr
+from coopsat.design.cw import cartwheel_state, cw_matrices, cw_stm, deputy_phases
+from coopsat.design.lqr import discretize, lqr
 
 N = np.sqrt(MU_EARTH_M3_S2 / (R_EARTH_M + 500e3) ** 3)  # 500 km chief
 
@@ -52,10 +53,9 @@ def test_deputies_are_evenly_spaced_and_the_circle_plane_is_tilted_30_degrees():
 
 
 def test_discrete_lqr_stabilises_and_satisfies_the_riccati_equation():
-    from coopsat.design.formation import discretize
-
     q, r = np.diag([1e4] * 3 + [1e6] * 3), np.eye(3) * 1e8
-    k, p = discrete_lqr(N, 10.0, q, r)
+    res = lqr(*cw_matrices(N), q, r, discrete_dt_s=10.0)
+    k, p = res.K, res.P
     phi, gam = discretize(*cw_matrices(N), 10.0)
     assert np.abs(np.linalg.eigvals(phi - gam @ k)).max() < 1.0
     riccati = phi.T @ p @ phi - phi.T @ p @ gam @ np.linalg.solve(r + gam.T @ p @ gam, gam.T @ p @ phi) + q - p

@@ -20,7 +20,6 @@ from coopsat.design.formation import (
     centroid_gain,
     check_pair,
     common_mode_projector,
-    discretize,
     formation_model,
     kalman_controllability,
     kalman_observability,
@@ -33,8 +32,8 @@ from coopsat.design.formation import (
     reference_map,
     reference_state,
     relative_basis,
-    riccati_lqr,
 )
+from coopsat.design.lqr import discretize, lqr
 
 N, DIMS, MASS_KG = 4, 2, 700.0
 X_POS_M, X_VEL_M_S, U_MAX_N = 10.0, 0.05, 0.1
@@ -66,7 +65,8 @@ def deep_space_weights(decomp):
 def riccati(coordinates):
     decomp = decomposition(coordinates)
     q, r = deep_space_weights(decomp)
-    k, x = riccati_lqr(decomp.a_o, decomp.b_o, q, r)
+    res = lqr(decomp.a_o, decomp.b_o, q, r)
+    k, x = res.K, res.P
     return q, r, k, x
 
 
@@ -308,7 +308,7 @@ def test_min_gamma_does_not_determine_the_gain():
     gamma_sq = lmi_design("hub", "gamma").gamma ** 2
     q_alt = q.copy()
     q_alt[:6, :6] += 9.0 * q[0, 0] * np.kron(np.full((3, 3), 1.0 / 3.0), np.eye(DIMS))
-    k_alt, _ = riccati_lqr(decomp.a_o, decomp.b_o, q_alt, r)
+    k_alt = lqr(decomp.a_o, decomp.b_o, q_alt, r).K
     a_cl = decomp.a_o - decomp.b_o @ k_alt
     x_alt = solve_continuous_lyapunov(a_cl.T, -(q + k_alt.T @ r @ k_alt))  # cost under the original q
     assert rel_err(k_alt, k) > 0.05
@@ -339,7 +339,7 @@ def test_riccati_force_law_is_coordinate_free_when_the_cost_is():
     np.testing.assert_allclose(orth.a_o, g @ hub.a_o @ np.linalg.inv(g), atol=1e-14)
     np.testing.assert_allclose(orth.b_o, g @ hub.b_o, atol=1e-16)
     g_inv = np.linalg.inv(g)
-    k_o, _ = riccati_lqr(orth.a_o, orth.b_o, g_inv.T @ q_h @ g_inv, r)
+    k_o = lqr(orth.a_o, orth.b_o, g_inv.T @ q_h @ g_inv, r).K
     assert rel_err(physical_law(orth, k_o), physical_law(hub, k_h)) < 1e-8
 
 
@@ -357,7 +357,7 @@ def test_same_numeric_weights_are_different_costs_in_hub_and_orthonormal():
 def test_scalar_input_weight_gives_no_common_mode_force(coordinates):
     decomp = decomposition(coordinates)
     q, _, _, _ = riccati(coordinates)
-    k, _ = riccati_lqr(decomp.a_o, decomp.b_o, q, 37.0 * np.eye(N * DIMS))
+    k = lqr(decomp.a_o, decomp.b_o, q, 37.0 * np.eye(N * DIMS)).K
     np.testing.assert_allclose(ones_d(N, DIMS).T @ k, 0.0, atol=1e-12 * np.abs(k).max())
     gain = lmi_design(coordinates, "trace").gain
     assert np.abs(ones_d(N, DIMS).T @ gain).max() < 1e-6 * np.abs(gain).max()
@@ -369,7 +369,7 @@ def test_scalar_input_weight_gives_no_common_mode_force(coordinates):
 def test_nonzero_setpoint_law_settles_on_the_commanded_pairs():
     model = formation_model(N, DIMS, MASS_KG)
     q, r = bryson_weights(np.r_[np.full(8, X_POS_M), np.full(8, X_VEL_M_S)], U_MAX_N, n_u=8)
-    k, _ = riccati_lqr(model.a, model.b, q, r)
+    k = lqr(model.a, model.b, q, r).K
     n_ff = nonzero_setpoint_feedforward(model.a, model.b, model.c, k)
     y_d = model.c @ np.r_[LINE_M.ravel(), np.zeros(8)]
     dc = model.c @ np.linalg.solve(model.b @ k - model.a, model.b)
@@ -444,7 +444,7 @@ def test_centroid_gain_and_the_assembled_loop():
     ones = ones_d(N, DIMS)
     q_c, r_c = bryson_weights([X_POS_M, X_POS_M, X_VEL_M_S, X_VEL_M_S], [0.4, 0.4])
     design = centroid_gain(decomp, q_c, r_c, objective="trace")
-    k_c, _ = riccati_lqr(decomp.a_uo, decomp.b_uo @ ones, q_c, r_c)
+    k_c = lqr(decomp.a_uo, decomp.b_uo @ ones, q_c, r_c).K
     assert design.gain.shape == (DIMS, 2 * DIMS)
     assert rel_err(design.gain, -k_c) < 1e-5
     # u = (1 ⊗ I) K_c x_ō + Π K_o x_o on the absolute model: both loops close, and decouple.

@@ -25,9 +25,10 @@ def _input_errors():
     from coopsat.workflows.campaign.spec import CampaignError
     from coopsat.workflows.tune import TuneError
     from coopsat.workflows.pair import PairError
+    from coopsat.plugins import PluginError
 
     return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError,
-            PairError)
+            PairError, PluginError)
 
 
 def _cmd_list(args):

@@ -217,6 +217,11 @@ class Plugin:
     tunables : callable or None
         ``(table, ctx, part) -> dict of field name -> Tunable``: the continuous fields a
         gradient may vary (gains, weights), and how each enters the built part.
+    thresholds : type or None
+        A :class:`~coopsat.plugins.tables.Table` of the ``[analysis]`` fields its paper's
+        metrics read (a settle tolerance, a convergence bound): the scenario's ``[analysis]``
+        table is composed from the core fields and every installed plug-in's thresholds, so a
+        paper owns its thresholds. Two plug-ins may share one such table (the same class).
     origin : Origin or None
         Set by the registry: the distribution and module that registered it.
     """
@@ -228,6 +233,7 @@ class Plugin:
     checks: tuple = ()
     analysis: str | None = None
     tunables: object = None
+    thresholds: type | None = None
     origin: Origin | None = field(default=None, compare=False)
 
 

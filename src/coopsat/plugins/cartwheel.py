@@ -15,7 +15,16 @@ from typing import Literal
 from pydantic import Field
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
-from coopsat.plugins.tables import MAX_DISTANCE_M, MAX_FORCE_N, MAX_GAIN, MAX_SPEED_M_S, MAX_TIME_S, Table, whole_ratio
+from coopsat.plugins.tables import (
+    MAX_DISTANCE_M,
+    MAX_FORCE_N,
+    MAX_GAIN,
+    MAX_SPEED_M_S,
+    MAX_TIME_S,
+    FormationTolerance,
+    Table,
+    whole_ratio,
+)
 
 ANALYSIS = "coopsat.analysis.papers.cartwheel_keeping"
 
@@ -195,4 +204,5 @@ def check_cw_validity(table, ctx):
     return DesignCheck("cw-validity", ok, note, {"chief_eccentricity": e, "radius_over_orbit": ratio})
 
 
-register(Plugin("controller", "cartwheel-keeping", CartwheelTable, _build, (check_design, check_cw_validity), ANALYSIS))
+register(Plugin("controller", "cartwheel-keeping", CartwheelTable, _build, (check_design, check_cw_validity), ANALYSIS,
+                thresholds=FormationTolerance))

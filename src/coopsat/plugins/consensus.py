@@ -177,5 +177,15 @@ def tunables(table, ctx, part):
     }
 
 
+class SpinDownThreshold(Table):
+    """``[analysis]`` threshold of the consensus paper's spin-down metric (SPEC §1)."""
+
+    spin_rate_rad_s: float = Field(
+        0.1, gt=0, le=MAX_RATE_RAD_S,
+        description="Spin-down: the excess rate along the initial spin axis counts as removed below this, rad/s.",
+    )
+
+
 for _kind, _table in (("consensus-sync", ConsensusSync), ("consensus-track", ConsensusTrack)):
-    register(Plugin("controller", _kind, _table, _build, (check_spanning_tree, check_sampled_data), ANALYSIS, tunables))
+    register(Plugin("controller", _kind, _table, _build, (check_spanning_tree, check_sampled_data), ANALYSIS, tunables,
+                    thresholds=SpinDownThreshold))

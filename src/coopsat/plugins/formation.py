@@ -18,7 +18,7 @@ from typing import Annotated, Literal
 from pydantic import Field
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, Tunable, register
-from coopsat.plugins.tables import MAX_DISTANCE_M, MAX_FORCE_N, MAX_SPEED_M_S, Table
+from coopsat.plugins.tables import MAX_DISTANCE_M, MAX_FORCE_N, MAX_SPEED_M_S, FormationTolerance, Table
 
 ANALYSIS = "coopsat.analysis.papers.deep_space_2008"
 
@@ -348,4 +348,5 @@ def tunables(table, ctx, part):
     return {"gain": Tunable(np.asarray(k0), apply, lambda k: {"design": "gain", "gain": np.asarray(k).tolist()})}
 
 
-register(Plugin("controller", "formation-observer", FormationObserverTable, _build, (check_design, check_centroid), ANALYSIS, tunables))
+register(Plugin("controller", "formation-observer", FormationObserverTable, _build, (check_design, check_centroid), ANALYSIS, tunables,
+                thresholds=FormationTolerance))

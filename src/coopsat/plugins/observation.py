@@ -228,8 +228,17 @@ def check_disturbance_budget(table, ctx):
     return DesignCheck("disturbance-budget", ok, say, metrics)
 
 
+class PointingThreshold(Table):
+    """``[analysis]`` threshold of the observation paper's convergence metrics (SPEC §5)."""
+
+    pointing_converged_deg: float = Field(
+        0.05, gt=0, le=180, description="Staring attitude error that counts as converged after the switch, deg (SPEC §5)."
+    )
+
+
 register(Plugin(
     "controller", "observation", Observation, _build,
     (check_visibility, check_sun_start, check_sampled_loop, check_disturbance_budget),
     analysis="coopsat.analysis.papers.observation_2019",
+    thresholds=PointingThreshold,
 ))

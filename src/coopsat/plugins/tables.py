@@ -99,3 +99,12 @@ def whole_ratio(a, b):
         return None
     k = round(r)
     return k if k >= 1 and abs(r - k) <= 1e-9 * max(1.0, r) else None
+
+
+class FormationTolerance(Table):
+    """``[analysis]`` threshold of the formation papers (SPEC §2 and §4): their settle and
+    reconfiguration times count from when every error stays below it."""
+
+    formation_tolerance_m: float = Field(
+        1.0, gt=0, le=MAX_DISTANCE_M, description="Formation error (translation removed) that counts as settled, m."
+    )

@@ -271,24 +271,45 @@ class Network(Graph):
 
 
 
-class Analysis(Table):
-    """``[analysis]``: thresholds of the metrics."""
+class _CoreAnalysis(Table):
+    """The core of ``[analysis]``: thresholds of the generic metrics and figures (pairwise
+    synchronisation, how long a settled condition must hold)."""
 
     sync_attitude_deg: float = Field(1.0, gt=0, le=180, description="Pairwise attitude error that counts as synchronised, deg.")
     sync_rate_rad_s: float = Field(0.01, gt=0, le=MAX_RATE_RAD_S, description="Pairwise rate difference that counts as synchronised, rad/s.")
-    spin_rate_rad_s: float = Field(
-        0.1, gt=0, le=MAX_RATE_RAD_S,
-        description="Spin-down: the excess rate along the initial spin axis counts as removed below this, rad/s.",
-    )
-    formation_tolerance_m: float = Field(
-        1.0, gt=0, le=MAX_DISTANCE_M, description="Formation error (translation removed) that counts as settled, m."
-    )
-    pointing_converged_deg: float = Field(
-        0.05, gt=0, le=180, description="Staring attitude error that counts as converged after the switch, deg (SPEC §5)."
-    )
     settle_hold_s: float = Field(
         10.0, ge=0, le=MAX_TIME_S, description="A settle time counts only if the condition has held this long by the end of the run, s."
     )
+
+
+def _analysis_table():
+    """``[analysis]``: the core thresholds and every installed plug-in's (:attr:`Plugin.thresholds`),
+    so that a paper owns its thresholds. Two plug-ins may share a thresholds table; two tables
+    defining one field is a :class:`~coopsat.plugins.PluginError`."""
+    from pydantic import create_model
+
+    from coopsat.plugins import ROLES, PluginError
+
+    fields, owner = {}, {name: "coopsat (core)" for name in _CoreAnalysis.model_fields}
+    for role in ROLES:
+        for p in plugins(role).values():
+            table = p.thresholds
+            for name, info in (table.model_fields.items() if table is not None else ()):
+                if name in owner and fields.get(name, (None, None, None))[2] is not table:
+                    raise PluginError(
+                        f"[analysis] field '{name}' is defined by {owner[name]} and by {p.origin} ({table.__name__})"
+                    )
+                fields[name] = (info.annotation, info, table)
+                owner[name] = f"{p.origin} ({table.__name__})"
+    model = create_model(
+        "Analysis", __base__=_CoreAnalysis, __module__=__name__,
+        **{name: (annotation, info) for name, (annotation, info, _) in fields.items()},
+    )
+    model.__doc__ = "``[analysis]``: thresholds of the metrics (the core's and the installed papers')."
+    return model
+
+
+Analysis = _analysis_table()
 
 
 class Published(Table):

@@ -10,8 +10,9 @@ import pytest
 os.environ.setdefault("COOPSAT_JAX_CACHE", os.path.join(tempfile.gettempdir(), "coopsat-test-jax-cache"))
 
 from coopsat import _jax  # noqa: E402
+from coopsat.cli import configure_process  # noqa: E402
 
-_jax.configure_process()
+configure_process()
 _jax.enable()  # tests call low-level JAX functions directly, before any build or run
 
 

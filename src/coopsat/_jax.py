@@ -2,7 +2,7 @@
 
 Importing any coopsat module changes nothing in the process: no environment variable, no JAX
 configuration value, no lowering rule (tests/meta/test_import_side_effects.py checks it in a
-fresh interpreter). Two functions change the process, each documented where it is public
+fresh interpreter). Two functions describe what changes, each documented where it is public
 (docs/api.md, "What coopsat changes in your process"):
 
 * :func:`enable` — the one change a library user gets: the first run, batch or design call
@@ -10,9 +10,10 @@ fresh interpreter). Two functions change the process, each documented where it i
   1e-12 and float32 cannot) and lowers small Threefry hashes unrolled on the CPU (the same
   bits, 2–3× faster runs with per-period random draws). Both are process-wide; call
   :func:`coopsat.configure` first to choose.
-* :func:`configure_process` — what the ``coopsat`` command (and the Dask workers coopsat starts
-  itself) set for their own process: XLA's CPU options (one device per core, YNNPACK fusions
-  off) and the persistent compilation cache.
+* :func:`process_environment` — the environment of a process coopsat owns: XLA's CPU options
+  (one device per core, YNNPACK fusions off) and the persistent compilation cache. Only the
+  command line writes it into its own process (``coopsat.cli.configure_process``) and into the
+  Dask workers it starts; this module writes nothing.
 """
 
 import os
@@ -113,28 +114,6 @@ def process_environment(cpu_devices=None, cache=True):
     if cache:
         env.update({name.upper(): str(value) for name, value in cache_settings().items()})
     return env
-
-
-_process_configured = False
-
-
-def configure_process(cache=True):
-    """The settings of a process coopsat owns (the CLI, the test suite): XLA's CPU options and
-    the persistent compilation cache; float64 follows at the first build or run. Idempotent.
-
-    Call before the first computation: XLA reads ``XLA_FLAGS`` when its CPU backend starts.
-    JAX itself is not imported here (``coopsat list`` stays quick): if it is not loaded yet,
-    the cache settings go into the ``JAX_*`` variables it reads when imported.
-    """
-    global _process_configured
-    if _process_configured:
-        return
-    _process_configured = True
-    env = process_environment(cache=cache and "jax" not in sys.modules)
-    os.environ.update(env)
-    if cache and "jax" in sys.modules:
-        for name, value in cache_settings().items():
-            sys.modules["jax"].config.update(name, value)
 
 
 def _unroll_small_threefry():

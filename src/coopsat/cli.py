@@ -15,6 +15,33 @@ EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 
 
+_process_configured = False
+
+
+def configure_process(cache=True):
+    """Set up the command's own process (and the test suite's): XLA's CPU options and the
+    persistent compilation cache (:func:`coopsat._jax.process_environment`); float64 follows
+    at the first build or run. Idempotent; a library import never does this.
+
+    Call before the first computation: XLA reads ``XLA_FLAGS`` when its CPU backend starts.
+    JAX is not imported here (``coopsat list`` stays quick): if it is not loaded yet, the cache
+    settings go into the ``JAX_*`` variables it reads when imported.
+    """
+    import os
+
+    from coopsat import _jax
+
+    global _process_configured
+    if _process_configured:
+        return
+    _process_configured = True
+    jax_loaded = "jax" in sys.modules
+    os.environ.update(_jax.process_environment(cache=cache and not jax_loaded))
+    if cache and jax_loaded:
+        for name, value in _jax.cache_settings().items():
+            sys.modules["jax"].config.update(name, value)
+
+
 def _input_errors():
     from coopsat.network.topology import GraphError
     from coopsat.workflows.pipeline import RunFolderError
@@ -536,10 +563,10 @@ def main(argv=None):
     (after compiling, after a compiled chunk of the loop, between stages) with one line and
     status 130 or 143, leaving nothing behind (:mod:`coopsat._interrupt`).
     """
-    from coopsat import _interrupt, _jax
+    from coopsat import _interrupt
 
     args = build_parser().parse_args(argv)
-    _jax.configure_process()  # the command's own process: XLA's CPU options, compilation cache
+    configure_process()
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = _interrupt.install() if in_main_thread else {}
     try:

@@ -12,7 +12,7 @@ The space circular formation ("cartwheel") of radius ρ, tilted 30° from the lo
 bounded solution of the unforced equations with ``|r| = ρ`` at all times.
 
 The keeping gain is the sampled LQR of this model (SPEC §2 eqs. 12–14 in discrete form, the
-command held over the period): ``coopsat.design.lqr.lqr(*cw_matrices(n), Q, R,
+command held over the period): ``coopsat.design.riccati.lqr(*cw_matrices(n), Q, R,
 discrete_dt_s=T)``.
 """
 

@@ -1,7 +1,7 @@
 """Deep-space formation: model, observability decomposition, LMI gains (SPEC §4).
 
-The Riccati (LQR) baseline is :func:`coopsat.design.lqr.lqr`, the package's one Riccati
-solver; the zero-order hold :func:`discretize` is :func:`coopsat.design.lqr.discretize`.
+The Riccati (LQR) baseline is :func:`coopsat.design.riccati.lqr`, the package's one Riccati
+solver; the zero-order hold :func:`discretize` is :func:`coopsat.design.riccati.discretize`.
 
 Model (paper eq. (2), (18)). n spacecraft of mass m, each a double integrator in inertial axes
 (d = 2 in the plane, or 3). Absolute state ``x = [p; v]``, p = (p_1, …, p_n) spacecraft-major
@@ -83,7 +83,7 @@ from numpy.typing import ArrayLike
 from scipy.linalg import matrix_balance
 
 from coopsat.design.lmi import LQR_SOLVERS, RTOL, LMIResult, MatrixInequality, solve_lmis
-from coopsat.design.lqr import discretize  # noqa: F401  (re-exported: the one zero-order hold)
+from coopsat.design.riccati import discretize  # noqa: F401  (re-exported: the one zero-order hold)
 from coopsat.design.memo import by_value
 
 #: Coordinates of the observable (relative) subsystem, see :func:`relative_basis`.

@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike
 from scipy.linalg import null_space
 from scipy.optimize import brentq
 
-from coopsat.design.lqr import discretize
+from coopsat.design.riccati import discretize
 from coopsat.design.memo import by_value
 from coopsat.network.topology import laplacian
 
@@ -98,7 +98,7 @@ def period_map(a, b, g, period_s):
     Notes
     -----
     ``e^{AT}`` and ``Γ = ∫_0^T e^{As} ds B`` come from one exponential of the augmented
-    matrix ``[[A, B], [0, 0]] T`` (Van Loan, 1978): :func:`coopsat.design.lqr.discretize`.
+    matrix ``[[A, B], [0, 0]] T`` (Van Loan, 1978): :func:`coopsat.design.riccati.discretize`.
     """
     phi, gam = discretize(a, b, period_s)
     return phi - gam @ g

@@ -103,7 +103,7 @@ def design(table, ctx):
 
     from coopsat.design.cw import cw_matrices
     from coopsat.design.formation import bryson_weights
-    from coopsat.design.lqr import discretize, lqr
+    from coopsat.design.riccati import discretize, lqr
     from coopsat.plugins.force_actuators import require_translation
 
     require_translation(ctx, "controller", "cartwheel keeping")

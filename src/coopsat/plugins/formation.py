@@ -151,7 +151,7 @@ def _design(table, ctx, force_scale_n=None):
     from scipy.linalg import block_diag
 
     from coopsat.design import formation as fd
-    from coopsat.design.lqr import lqr
+    from coopsat.design.riccati import lqr
 
     p0, target, mass, axes = _geometry(table, ctx)
     n, d = p0.shape

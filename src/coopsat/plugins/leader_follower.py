@@ -3,7 +3,7 @@
 The paper's law (3) and the classical protocol (:mod:`coopsat.control.leader_follower`) on the
 small-angle attitude model. Design-time: every follower must hear the leader; the tracking
 error system (two delays: one and two hops) is formed from the network's routes and the gain,
-and its exact constant-delay margin is computed (:mod:`coopsat.design.delay_margin`) and
+and its exact constant-delay margin is computed (:mod:`coopsat.design.delay_exact`) and
 compared with the largest single-hop delay the network can draw. The paper's metrics and
 explanations live in :mod:`coopsat.analysis.papers.leader_follower_2018`.
 """
@@ -110,7 +110,7 @@ def largest_hop_delay_s(ctx):
 
 def error_system(table, ctx, gain=None):
     """Per-axis tracking-error system (A0, [(A_m, m)]) of the scenario at t = 0 (first epoch)."""
-    from coopsat.design.delay_margin import leader_follower_error_system
+    from coopsat.design.delay_exact import leader_follower_error_system
 
     hops, weights = follower_hops(table, ctx)[0]
     k = [list(table.gain if gain is None else gain)]
@@ -122,7 +122,7 @@ def check_delay_margin(table, ctx):
     largest single-hop delay."""
     import math
 
-    from coopsat.design.delay_margin import exact_delay_margin
+    from coopsat.design.delay_exact import exact_delay_margin
 
     margin = exact_delay_margin(*error_system(table, ctx))
     bound = largest_hop_delay_s(ctx)
@@ -180,7 +180,7 @@ def design(table, ctx, h_s):
 
     Returns
     -------
-    (coopsat.design.lmi.DelayGainDesign, coopsat.design.delay_margin.DelayMargin)
+    (coopsat.design.lmi.DelayGainDesign, coopsat.design.delay_exact.DelayMargin)
 
     Raises
     ------
@@ -190,7 +190,7 @@ def design(table, ctx, h_s):
     """
     import numpy as np
 
-    from coopsat.design.delay_margin import exact_delay_margin
+    from coopsat.design.delay_exact import exact_delay_margin
     from coopsat.design.lmi import design_gain
 
     try:

@@ -131,9 +131,6 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
     """Print a throughput table for each case and size, then the batched (campaign) lines, with
     each consensus row's fraction of the ceiling measured alongside. ``native=False``: the
     whole loop in XLA (no native kernel), for before/after comparisons in one sitting."""
-    from coopsat import _jax
-
-    _jax.configure_process()  # XLA's CPU options are read when the backend starts
 
     import jax
 

@@ -6,7 +6,7 @@ from scipy.linalg import expm
 
 from coopsat.astro.constants import MU_EARTH_M3_S2, R_EARTH_M
 from coopsat.design.cw import cartwheel_state, cw_matrices, cw_stm, deputy_phases
-from coopsat.design.lqr import discretize, lqr
+from coopsat.design.riccati import discretize, lqr
 
 N = np.sqrt(MU_EARTH_M3_S2 / (R_EARTH_M + 500e3) ** 3)  # 500 km chief
 

@@ -7,7 +7,7 @@ import pytest
 from scipy.linalg import svd
 from scipy.special import lambertw
 
-from coopsat.design.delay_margin import (
+from coopsat.design.delay_exact import (
     characteristic_matrix,
     exact_delay_margin,
     leader_follower_error_system,

@@ -33,7 +33,7 @@ from coopsat.design.formation import (
     reference_state,
     relative_basis,
 )
-from coopsat.design.lqr import discretize, lqr
+from coopsat.design.riccati import discretize, lqr
 
 N, DIMS, MASS_KG = 4, 2, 700.0
 X_POS_M, X_VEL_M_S, U_MAX_N = 10.0, 0.05, 0.1

@@ -1,4 +1,4 @@
-"""coopsat.design.lqr: the package's one Riccati solver, against SciPy, closed forms and the
+"""coopsat.design.riccati: the package's one Riccati solver, against SciPy, closed forms and the
 sampled CW keeping gain computed the way it was before lqr existed."""
 
 import dataclasses
@@ -14,7 +14,7 @@ from coopsat.astro.constants import MU_EARTH_M3_S2, R_EARTH_M
 from coopsat.design import formation, sampled_data
 from coopsat.design.cw import cw_matrices
 from coopsat.design.formation import bryson_weights
-from coopsat.design.lqr import LQRResult, discretize, lqr
+from coopsat.design.riccati import LQRResult, discretize, lqr
 
 N_CW = math.sqrt(MU_EARTH_M3_S2 / (R_EARTH_M + 500e3) ** 3)  # 500 km chief, rad/s
 
@@ -148,7 +148,7 @@ def test_only_lqr_calls_the_scipy_riccati_solvers():
         for p in src.rglob("*.py")
         if "solve_continuous_are" in p.read_text(encoding="utf-8") or "solve_discrete_are" in p.read_text(encoding="utf-8")
     )
-    assert users == ["design/lqr.py"]
+    assert users == ["design/riccati.py"]
 
 
 # --- errors ------------------------------------------------------------------------------------

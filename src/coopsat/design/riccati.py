@@ -152,8 +152,17 @@ def lqr(A, B, Q, R, *, discrete_dt_s: float | None = None) -> LQRResult:
     P is symmetrised before K is formed. Examples: the double integrator ``A = [[0, 1],
     [0, 0]]``, ``B = [[0], [1]]``, Q = I, R = 1 gives ``K = [1, √3]``.
     """
-    from scipy.linalg import solve_continuous_are, solve_discrete_are
+    a, b, q, r = _checked_weights(A, B, Q, R)
+    if discrete_dt_s is None:
+        return _continuous_lqr(a, b, q, r)
+    dt = float(discrete_dt_s)
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"lqr: discrete_dt_s must be finite and > 0, got {discrete_dt_s}")
+    return _sampled_lqr(a, b, q, r, dt)
 
+
+def _checked_weights(A, B, Q, R):
+    """(A, B, Q, R) as float matrices of matching shapes, Q and R symmetric, R ≻ 0; else one line."""
     a, b, q, r = (_matrix(name, v) for name, v in (("A", A), ("B", B), ("Q", Q), ("R", R)))
     n, m = b.shape
     if a.shape != (n, n) or q.shape != (n, n) or r.shape != (m, m):
@@ -167,35 +176,44 @@ def lqr(A, B, Q, R, *, discrete_dt_s: float | None = None) -> LQRResult:
     r_min = float(np.linalg.eigvalsh(0.5 * (r + r.T))[0])
     if not r_min > 0.0:
         raise ValueError(f"lqr: R must be positive definite, its smallest eigenvalue is {r_min:.6g}")
-    if discrete_dt_s is None:
-        try:
-            p = solve_continuous_are(a, b, q, r)
-        except (np.linalg.LinAlgError, ValueError) as err:
-            raise ValueError(f"lqr: the continuous Riccati equation has no stabilising solution (scipy: {_one_line(err)})") from None
-        p = 0.5 * (p + p.T)
-        k = np.linalg.solve(r, b.T @ p)
-        poles = np.linalg.eigvals(a - b @ k)
-        pbk = p @ b @ k  # P B R⁻¹ Bᵀ P
-        residual = _relative(a.T @ p + p @ a - pbk + q, (a.T @ p, p @ a, pbk, q))
-        unstable = not np.all(poles.real < 0.0)
-        where = f"max Re = {poles.real.max():.3g} 1/s"
-    else:
-        dt = float(discrete_dt_s)
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"lqr: discrete_dt_s must be finite and > 0, got {discrete_dt_s}")
-        phi, gam = discretize(a, b, dt)
-        try:
-            p = solve_discrete_are(phi, gam, q, r)
-        except (np.linalg.LinAlgError, ValueError) as err:
-            raise ValueError(f"lqr: the discrete Riccati equation has no stabilising solution (scipy: {_one_line(err)})") from None
-        p = 0.5 * (p + p.T)
-        k = np.linalg.solve(r + gam.T @ p @ gam, gam.T @ p @ phi)
-        poles = np.linalg.eigvals(phi - gam @ k)
-        ptp = phi.T @ p @ phi
-        cross = phi.T @ p @ gam @ k  # ΦᵀPΓ(R + ΓᵀPΓ)⁻¹ΓᵀPΦ
-        residual = _relative(ptp - p - cross + q, (ptp, p, cross, q))
-        unstable = not np.all(np.abs(poles) < 1.0)
-        where = f"max |z| = {np.abs(poles).max():.6g}"
-    if unstable:
-        raise ValueError(f"lqr: no stabilising solution: a closed-loop pole lies outside the stability region ({where})")
-    return LQRResult(K=k, P=p, poles=poles, residual=residual, discrete_dt_s=discrete_dt_s if discrete_dt_s is None else dt)
+    return a, b, q, r
+
+
+def _continuous_lqr(a, b, q, r):
+    """CARE design (:func:`lqr` with ``discrete_dt_s=None``)."""
+    from scipy.linalg import solve_continuous_are
+
+    try:
+        p = solve_continuous_are(a, b, q, r)
+    except (np.linalg.LinAlgError, ValueError) as err:
+        raise ValueError(f"lqr: the continuous Riccati equation has no stabilising solution (scipy: {_one_line(err)})") from None
+    p = 0.5 * (p + p.T)
+    k = np.linalg.solve(r, b.T @ p)
+    poles = np.linalg.eigvals(a - b @ k)
+    pbk = p @ b @ k  # P B R⁻¹ Bᵀ P
+    residual = _relative(a.T @ p + p @ a - pbk + q, (a.T @ p, p @ a, pbk, q))
+    if not np.all(poles.real < 0.0):
+        raise ValueError(f"lqr: no stabilising solution: a closed-loop pole lies outside the stability region "
+                         f"(max Re = {poles.real.max():.3g} 1/s)")
+    return LQRResult(K=k, P=p, poles=poles, residual=residual, discrete_dt_s=None)
+
+
+def _sampled_lqr(a, b, q, r, dt):
+    """ZOH + DARE design (:func:`lqr` with ``discrete_dt_s=dt``)."""
+    from scipy.linalg import solve_discrete_are
+
+    phi, gam = discretize(a, b, dt)
+    try:
+        p = solve_discrete_are(phi, gam, q, r)
+    except (np.linalg.LinAlgError, ValueError) as err:
+        raise ValueError(f"lqr: the discrete Riccati equation has no stabilising solution (scipy: {_one_line(err)})") from None
+    p = 0.5 * (p + p.T)
+    k = np.linalg.solve(r + gam.T @ p @ gam, gam.T @ p @ phi)
+    poles = np.linalg.eigvals(phi - gam @ k)
+    ptp = phi.T @ p @ phi
+    cross = phi.T @ p @ gam @ k  # ΦᵀPΓ(R + ΓᵀPΓ)⁻¹ΓᵀPΦ
+    residual = _relative(ptp - p - cross + q, (ptp, p, cross, q))
+    if not np.all(np.abs(poles) < 1.0):
+        raise ValueError(f"lqr: no stabilising solution: a closed-loop pole lies outside the stability region "
+                         f"(max |z| = {np.abs(poles).max():.6g})")
+    return LQRResult(K=k, P=p, poles=poles, residual=residual, discrete_dt_s=dt)

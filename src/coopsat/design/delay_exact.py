@@ -466,15 +466,7 @@ def delay_margin(
 ) -> DelayMargin:
     """Exact constant-delay margin of ``ẋ = A0 x + Σ_k A_k x(t − m_k τ)`` (``coopsat.design``).
 
-    Parameters
-    ----------
-    a0 : array_like, shape (n, n)
-        Undelayed state matrix, 1/s.
-    terms : sequence of (array_like (n, n), int)
-        ``(A_k, m_k)``: ``A_k`` (1/s) multiplies ``x(t − m_k τ)``, ``m_k`` a positive integer
-        (hops).
-    tau_max_search : float, optional
-        List in ``crossings`` every imaginary-axis crossing with τ ≤ this, s.
+    Parameters as :func:`exact_delay_margin` (``tau_max_search`` keyword-only).
 
     Returns
     -------

@@ -114,7 +114,7 @@ def load_ceiling():
     import sys
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "ceiling.py"
+    path = Path(__file__).resolve().parents[3] / "benchmarks" / "ceiling.py"  # src/coopsat/workflows/
     if not path.is_file():
         return None, "no benchmarks/ceiling.py beside this installation (run from a source checkout)"
     spec = importlib.util.spec_from_file_location("coopsat_ceiling", path)
@@ -131,7 +131,9 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
     """Print a throughput table for each case and size, then the batched (campaign) lines, with
     each consensus row's fraction of the ceiling measured alongside. ``native=False``: the
     whole loop in XLA (no native kernel), for before/after comparisons in one sitting."""
+    from coopsat import _jax
 
+    _jax.enable()  # float64 before the cases' arrays are made (they are built here, not by a scenario)
     import jax
 
     from coopsat.sim.native.pool import PARALLEL_MIN

@@ -4,15 +4,20 @@ checkout's benchmarks/ceiling.py."""
 
 import subprocess
 import sys
+from pathlib import Path
+
+import coopsat.workflows.bench as bench
 
 
 def test_bench_runs_small_and_quotes_the_ceiling():
     proc = subprocess.run([sys.executable, "-m", "coopsat.cli", "bench", "--sizes", "5", "--steps", "200", "--batch", "0"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert "no ceiling column" not in proc.stdout
+    # Installed from a wheel (CI), there is no benchmarks/ beside the package: the line says so.
+    from_source = (Path(bench.__file__).resolve().parents[3] / "benchmarks" / "ceiling.py").is_file()
+    assert ("no ceiling column" not in proc.stdout) == from_source
     rows = [line.split() for line in proc.stdout.splitlines() if line.startswith(("torque-free", "consensus "))]
     assert len(rows) == 2
     assert all(float(r[6]) > 0.0 for r in rows)  # M spacecraft-steps/s
-    consensus = rows[1]
-    assert 0.0 < float(consensus[-1]) < 2.0  # fraction of the ceiling measured beside it
+    if from_source:
+        assert 0.0 < float(rows[1][-1]) < 2.0  # fraction of the ceiling measured beside it

@@ -9,11 +9,11 @@ import pytest
 
 os.environ.setdefault("COOPSAT_JAX_CACHE", os.path.join(tempfile.gettempdir(), "coopsat-test-jax-cache"))
 
-from coopsat import _jax  # noqa: E402
+from coopsat.core import runtime  # noqa: E402
 from coopsat.cli import configure_process  # noqa: E402
 
 configure_process()
-_jax.enable()  # tests call low-level JAX functions directly, before any build or run
+runtime.enable()  # tests call low-level JAX functions directly, before any build or run
 
 
 def _run_toml(directory, text, overrides=()):

@@ -44,13 +44,13 @@ def configure(*, float64: bool = True, unrolled_threefry: bool = True, compilati
         ``~/.cache/coopsat/jax`` (what the ``coopsat`` command uses); a string: that folder.
         Process-wide, and it caches every program, not only slow ones.
     """
-    from coopsat import _jax
+    from coopsat.core import runtime
 
-    _jax.set_choices(float64=float64, unrolled_threefry=unrolled_threefry)
+    runtime.set_choices(float64=float64, unrolled_threefry=unrolled_threefry)
     if compilation_cache:
         import jax
 
-        settings = _jax.cache_settings()
+        settings = runtime.cache_settings()
         if isinstance(compilation_cache, str):
             settings["jax_compilation_cache_dir"] = compilation_cache
         for name, value in settings.items():

@@ -20,7 +20,7 @@ _process_configured = False
 
 def configure_process(cache=True):
     """Set up the command's own process (and the test suite's): XLA's CPU options and the
-    persistent compilation cache (:func:`coopsat._jax.process_environment`); float64 follows
+    persistent compilation cache (:func:`coopsat.core.runtime.process_environment`); float64 follows
     at the first build or run. Idempotent; a library import never does this.
 
     Call before the first computation: XLA reads ``XLA_FLAGS`` when its CPU backend starts.
@@ -29,16 +29,16 @@ def configure_process(cache=True):
     """
     import os
 
-    from coopsat import _jax
+    from coopsat.core import runtime
 
     global _process_configured
     if _process_configured:
         return
     _process_configured = True
     jax_loaded = "jax" in sys.modules
-    os.environ.update(_jax.process_environment(cache=cache and not jax_loaded))
+    os.environ.update(runtime.process_environment(cache=cache and not jax_loaded))
     if cache and jax_loaded:
-        for name, value in _jax.cache_settings().items():
+        for name, value in runtime.cache_settings().items():
             sys.modules["jax"].config.update(name, value)
 
 
@@ -48,7 +48,7 @@ def _input_errors():
     from coopsat.scenarios.load import ScenarioError
     from coopsat.sim.engine import NonFiniteStateError
     from coopsat.workflows.sweep import SweepError
-    from coopsat.workflows.tradeoff import TradeoffError
+    from coopsat.workflows.deep_space_tradeoff import TradeoffError
     from coopsat.workflows.campaign.spec import CampaignError
     from coopsat.workflows.tune import TuneError
     from coopsat.workflows.pair import PairError
@@ -271,7 +271,7 @@ def _cmd_topology(args):
 
 
 def _cmd_tradeoff(args):
-    from coopsat.workflows.tradeoff import DEFAULT_SCALES_N, TradeoffError, run_tradeoff
+    from coopsat.workflows.deep_space_tradeoff import DEFAULT_SCALES_N, TradeoffError, run_tradeoff
 
     try:
         scales = [float(v) for v in args.scales.split(",")] if args.scales else list(DEFAULT_SCALES_N)
@@ -561,25 +561,25 @@ def main(argv=None):
 
     Bad input: one line, status 2. SIGINT (Ctrl-C) and SIGTERM end a run at its next safe point
     (after compiling, after a compiled chunk of the loop, between stages) with one line and
-    status 130 or 143, leaving nothing behind (:mod:`coopsat._interrupt`).
+    status 130 or 143, leaving nothing behind (:mod:`coopsat.workflows.interrupt`).
     """
-    from coopsat import _interrupt
+    from coopsat.workflows import interrupt
 
     args = build_parser().parse_args(argv)
     configure_process()
     in_main_thread = threading.current_thread() is threading.main_thread()
-    previous = _interrupt.install() if in_main_thread else {}
+    previous = interrupt.install() if in_main_thread else {}
     try:
         return args.func(args)
     except _input_errors() as err:
         print(f"coopsat: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (KeyboardInterrupt, _interrupt.Interrupted) as stop:
-        term = isinstance(stop, _interrupt.Interrupted) and stop.signum == signal.SIGTERM
+    except (KeyboardInterrupt, interrupt.Interrupted) as stop:
+        term = isinstance(stop, interrupt.Interrupted) and stop.signum == signal.SIGTERM
         print(f"coopsat: {'terminated (SIGTERM)' if term else 'interrupted (SIGINT)'}; nothing written", file=sys.stderr)
         return EXIT_TERMINATED if term else EXIT_INTERRUPTED
     finally:
-        _interrupt.restore(previous)
+        interrupt.restore(previous)
 
 
 if __name__ == "__main__":

@@ -121,7 +121,7 @@ def test_run_equals_what_the_cli_writes(result, cli_folder):
     assert {k: v for k, v in written.attrs.items() if k not in IN_TIME_ATTRS} == {
         k: v for k, v in result.dataset.attrs.items() if k not in IN_TIME_ATTRS
     }
-    from coopsat.folders import json_ready
+    from coopsat.workflows.folders import json_ready
 
     assert json.loads((cli_folder / "metrics.json").read_text()) == json_ready(result.metrics)
     assert json.loads((cli_folder / "comparison.json").read_text()) == json_ready(result.comparison)

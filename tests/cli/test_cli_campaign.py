@@ -421,7 +421,7 @@ def test_local_workers_run_on_one_cpu_device():
     from coopsat.workflows.campaign.runner import client_for
 
     def devices():
-        from coopsat import _jax  # noqa: F401
+        from coopsat.core import runtime  # noqa: F401
 
         import jax
 

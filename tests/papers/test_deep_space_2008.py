@@ -136,7 +136,7 @@ def test_tradeoff_writes_fronts_and_the_matched_comparison(capsys, tmp_path):
 @pytest.mark.slow
 def test_full_tradeoff_reproduces_the_verdict_on_the_published_saving(tmp_path):
     """The default sweep of both designs in both coordinates (docs/papers/deep-space-2008.md)."""
-    from coopsat.workflows.tradeoff import run_tradeoff
+    from coopsat.workflows.deep_space_tradeoff import run_tradeoff
 
     _, comparisons, _, _ = run_tradeoff([LMI, LQR], tmp_path / "t")
     by = {(c["lmi"], c["lqr"]): np.median(c["saving_percent"]) for c in comparisons if c["overlap_s"]}
@@ -150,7 +150,7 @@ def test_fuel_tuned_gain_never_spends_more_than_lqr_nor_less_than_the_rest_to_re
     """`tradeoff --tune-fuel` on one LQR point, a few iterations: the tuned gain is kept only if
     the exact loop confirms it (else the LQR gain stays), and every design — LQR, LMI, tuned —
     spends at least the bang-coast-bang bound, an independent physical limit."""
-    from coopsat.workflows.tradeoff import run_tradeoff
+    from coopsat.workflows.deep_space_tradeoff import run_tradeoff
 
     rows, _, _, _ = run_tradeoff([LMI, LQR], tmp_path / "t", scales_n=[0.1], coordinates=("hub",), figures=False,
                                  tune_fuel=True, tune_iter=8)
@@ -160,7 +160,7 @@ def test_fuel_tuned_gain_never_spends_more_than_lqr_nor_less_than_the_rest_to_re
     assert tuned["fuel_l1_ns"] <= tuned["start_fuel_l1_ns"] * (1 + 1e-3)
     for r in rows:
         if r["settling_time_s"] is not None:
-            from coopsat.workflows.tradeoff import bound_curve
+            from coopsat.workflows.deep_space_tradeoff import bound_curve
 
             assert r["fuel_l1_ns"] >= float(bound_curve(LQR, [r["settling_time_s"]])[0])
     assert "tuned on the fuel itself" in (tmp_path / "t" / "comparison.md").read_text()

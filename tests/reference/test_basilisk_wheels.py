@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.actuators.pulses import Pulse
 from coopsat.workflows.pipeline import prepare
 from coopsat.scenarios.load import load_scenario

@@ -17,7 +17,7 @@ The mean output ``force`` is the mean force applied over the record interval (fr
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.actuators.impulse_bits import bits_pulse, quantise_impulse
 from coopsat.actuators.pulses import Pulse
 from coopsat.actuators.smooth import soft_clip, soft_deadzone

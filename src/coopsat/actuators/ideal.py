@@ -3,7 +3,7 @@
 
 import jax.numpy as jnp
 
-from coopsat._parts import part
+from coopsat.core.parts import part
 from coopsat.actuators.smooth import soft_clip
 from coopsat.actuators.pulses import IMPULSE_OUTPUTS, Pulse, torque_impulse_increments
 

@@ -10,7 +10,7 @@ turns by less than ω·T ≈ 1e-4 rad in inertial pointing, so holding it is exa
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.actuators.pulses import Pulse
 from coopsat.astro.earth import rotation_angle_rad
 from coopsat.astro.magnetic import dipole_field_eci

@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec
+from coopsat.core.parts import OutputSpec
 
 
 class Pulse(NamedTuple):

@@ -12,7 +12,7 @@ and the thruster of sign(u) fires for the first ``t_on`` of the period.
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.actuators.pulses import IMPULSE_OUTPUTS, Pulse, torque_impulse_increments
 
 THRUSTER_NAMES = ("+x", "-x", "+y", "-y", "+z", "-z")

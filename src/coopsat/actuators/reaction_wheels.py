@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part, per_spacecraft_normal
+from coopsat.core.parts import OutputSpec, part, per_spacecraft_normal
 from coopsat.actuators.pulses import IMPULSE_OUTPUTS
 from coopsat.actuators.wheels import wheel_motor_torque
 

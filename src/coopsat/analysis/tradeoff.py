@@ -2,7 +2,7 @@
 settling time (SPEC §4).
 
 A design's fuel means little alone: a slower controller spends less. Each design is swept over
-its weight (:mod:`coopsat.workflows.tradeoff`) and judged by its *front*, the runs no other run of the
+its weight (:mod:`coopsat.workflows.deep_space_tradeoff`) and judged by its *front*, the runs no other run of the
 same design beats on both fuel and settling time; two designs are compared by the fuel of
 their fronts at the same settling time, by linear interpolation along each front, only where
 both fronts reach.

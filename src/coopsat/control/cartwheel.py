@@ -21,7 +21,7 @@ Formation plane: :data:`coopsat.dynamics.cw.PLANE_AXES_LVLH` (``e1 = x̂``, ``e2
 import jax
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.control.pso import grid_minimize, pso_minimize
 from coopsat.dynamics.cw import PLANE_AXES_LVLH, cartwheel_state, cw_stm, transfer_impulse_l1
 

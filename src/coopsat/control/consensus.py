@@ -9,7 +9,7 @@ receiver index), never over a dense n×n matrix, so the law scales to thousands 
 import jax
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.geometry.quaternion import quat_error, quat_exp_rate, quat_multiply, quat_positive, quat_vector
 
 

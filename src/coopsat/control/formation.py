@@ -32,7 +32,7 @@ force expected to act rather than the one asked for. All matrices come from the 
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.actuators.thrusters import deadzone_thrust
 
 

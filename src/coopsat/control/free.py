@@ -1,6 +1,6 @@
 """No flight software: the spacecraft fly free (torque-free and force-free)."""
 
-from coopsat._parts import part
+from coopsat.core.parts import part
 
 
 @part()

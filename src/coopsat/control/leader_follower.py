@@ -17,7 +17,7 @@ The leader (``follower = 0``) flies free. K = [k_angle, k_rate] is the same on e
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.control.consensus import own_at_links, per_receiver_sum
 
 PROTOCOLS = ("law3", "classical")

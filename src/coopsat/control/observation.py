@@ -39,7 +39,7 @@ Arrays here are one spacecraft's vectors, shape (3,) or (4,) (``local`` flight s
 import jax
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.astro.earth import earth_fixed_point_eci, ecef_to_eci, elevation_rad, rotation_angle_rad
 from coopsat.geometry.quaternion import cross, dot, quat_conjugate, quat_multiply, quat_positive, quat_rotate, quat_vector
 

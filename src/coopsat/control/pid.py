@@ -8,7 +8,7 @@ the network: their outboxes are empty.
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.geometry.frames import eci_to_lvlh
 from coopsat.geometry.quaternion import quat_error, quat_positive, quat_vector
 

@@ -13,7 +13,7 @@ facets shadowing one another are not modelled (Basilisk's ``facetDragDynamicEffe
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.astro.atmosphere import altitude_m, density_kg_m3
 from coopsat.astro.earth import OMEGA_EARTH_RAD_S, rotation_angle_rad
 from coopsat.astro.magnetic import dipole_field_eci

@@ -7,7 +7,7 @@ Disturbance parts as in :mod:`coopsat.environment.torques`: ``init``, ``update``
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.geometry.quaternion import dot
 
 

@@ -10,7 +10,7 @@ records at a sample. Arrays are component-major, (3, n).
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part, per_spacecraft_normal
+from coopsat.core.parts import OutputSpec, part, per_spacecraft_normal
 from coopsat.dynamics.rigid_body import matvec3
 from coopsat.geometry.quaternion import cross, dot, quat_conjugate, quat_rotate
 

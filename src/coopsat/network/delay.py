@@ -24,7 +24,7 @@ spacecraft broadcasting attitude and rate (7 numbers) with 2 s of delay at a 1 m
 import jax
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.network.delivery import Inbox, active_row
 
 

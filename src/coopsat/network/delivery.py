@@ -13,7 +13,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from coopsat._parts import part
+from coopsat.core.parts import part
 
 
 def deliver_ideal(outbox, src, spacecraft_axis=0):

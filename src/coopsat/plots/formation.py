@@ -125,7 +125,7 @@ def fuel_time_figure(series):
     Parameters
     ----------
     series : list of (row, history)
-        ``row`` as in :func:`coopsat.workflows.tradeoff.sweep` (design, coordinates, force scale);
+        ``row`` as in :func:`coopsat.workflows.deep_space_tradeoff.sweep` (design, coordinates, force scale);
         ``history`` with ``t_s``, ``fuel_l1_ns`` (T, 3) and ``fuel_l2_ns`` (T,) or None.
     """
     fig = Figure(figsize=(7.5, 4.8), layout="constrained")

@@ -89,15 +89,15 @@ __all__ = [
 
 _LAZY = {
     "Table": "coopsat.plugins.tables",
-    "part": "coopsat._parts",
-    "OutputSpec": "coopsat._parts",
+    "part": "coopsat.core.parts",
+    "OutputSpec": "coopsat.core.parts",
     "Pulse": "coopsat.actuators.pulses",
     "Inbox": "coopsat.network.delivery",
 }
 """What a plug-in is made with, loaded on first use: :class:`~coopsat.plugins.tables.Table`, the
 base of every scenario table (unknown keys, NaN, ∞ and coerced types refused); and, importing
 JAX, the pytree decorator
-:func:`~coopsat._parts.part`, :class:`~coopsat._parts.OutputSpec` (how a recorded output
+:func:`~coopsat.core.parts.part`, :class:`~coopsat.core.parts.OutputSpec` (how a recorded output
 appears in the dataset), :class:`~coopsat.actuators.pulses.Pulse` (what an actuator's ``plan``
 returns) and :class:`~coopsat.network.delivery.Inbox` (what a network's ``deliver`` returns and
 a controller's ``step`` receives)."""

@@ -20,12 +20,12 @@ Conventions shared by every role (docs/architecture.md §3):
   start unless said otherwise); ``tick`` counts base ticks (``t = tick * dt_s``, int64).
 * **Randomness** only from ``key``: a JAX PRNG key already specific to this part and control
   period (the engine folds in the period and the part's stream number); draw spacecraft i's
-  numbers from ``jax.random.fold_in(key, i)`` (:func:`coopsat._parts.per_spacecraft_normal`)
+  numbers from ``jax.random.fold_in(key, i)`` (:func:`coopsat.core.parts.per_spacecraft_normal`)
   so that draws do not depend on the formation's size.
 * **State** is any pytree of arrays (``()`` for none) returned by ``init`` and threaded
   through every call; its shapes and dtypes never change during a run.
 * **Records** are dicts ``name -> array`` taken at the control period's start; each name is
-  described by the part's :meth:`output_specs` (a :class:`~coopsat._parts.OutputSpec`: dims
+  described by the part's :meth:`output_specs` (a :class:`~coopsat.core.parts.OutputSpec`: dims
   after time and spacecraft, units, frame, long name), which is how the output appears in
   ``result.nc``. Names are unique across the parts of a run.
 
@@ -48,7 +48,7 @@ import inspect
 from typing import TYPE_CHECKING, Any, Iterable, Mapping, Protocol, runtime_checkable
 
 if TYPE_CHECKING:  # documentation only: this module imports no JAX
-    from coopsat._parts import OutputSpec
+    from coopsat.core.parts import OutputSpec
     from coopsat.actuators.pulses import Pulse
     from coopsat.dynamics.plant import PlantState
     from coopsat.network.delivery import Inbox
@@ -117,7 +117,7 @@ class Builder(Protocol):
         Returns
         -------
         part
-            A :func:`~coopsat._parts.part` dataclass satisfying the role's protocol, its array
+            A :func:`~coopsat.core.parts.part` dataclass satisfying the role's protocol, its array
             fields laid out for the loop (component-major, spacecraft last) and converted with
             :func:`coopsat.sim.system.as_arrays` (or ``jnp.asarray``).
 
@@ -199,7 +199,7 @@ class Controller(Protocol):
             The new state.
         record : dict of str -> array
             What to record at this instant (``(k, n)`` per spacecraft, or per instant when its
-            :class:`~coopsat._parts.OutputSpec` says ``per_spacecraft=False``).
+            :class:`~coopsat.core.parts.OutputSpec` says ``per_spacecraft=False``).
         """
 
     def output_specs(self) -> dict[str, OutputSpec]:

@@ -218,9 +218,9 @@ def build(scenario):
         configured (the plug-in's own message), or another inconsistency that needs more than one
         table to see.
     """
-    from coopsat import _jax
+    from coopsat.core import runtime
 
-    _jax.enable()  # float64 before any design-time JAX array (coopsat._jax: the documented change)
+    runtime.enable()  # float64 before any design-time JAX array (coopsat.core.runtime: the documented change)
     import jax
 
     from coopsat.dynamics.plant import PlantParams, PlantState

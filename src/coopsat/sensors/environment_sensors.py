@@ -11,7 +11,7 @@ computed from the plant state and the time, component-major ``(k, n)``:
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.astro.earth import rotation_angle_rad
 from coopsat.astro.magnetic import dipole_field_eci
 from coopsat.astro.sun import sun_position_eci_m, sunlit

@@ -5,7 +5,7 @@ spacecraft last, so ``q_bi`` is ``(4, n)`` and body vectors are ``(3, n)``. Quat
 scalar-first, Hamilton, and ``q_bi`` takes body components to inertial components.
 
 Reproducibility: spacecraft i draws from ``jax.random.fold_in(key, i)``
-(:func:`coopsat._parts.per_spacecraft_normal`), so its noise does not depend on the formation size, and every
+(:func:`coopsat.core.parts.per_spacecraft_normal`), so its noise does not depend on the formation size, and every
 noise term folds its own fixed tag into the key first, so the star tracker, the gyro rate noise
 and the gyro bias walk never draw the same numbers from one key.
 """
@@ -16,7 +16,7 @@ import math
 import jax
 import jax.numpy as jnp
 
-from coopsat._parts import per_spacecraft_normal
+from coopsat.core.parts import per_spacecraft_normal
 from coopsat.geometry.quaternion import dot, quat_exp_rate, quat_multiply, quat_normalize
 
 ARCSEC_RAD = math.pi / 648000.0
@@ -36,7 +36,7 @@ def white_noise(value, key, sigma):
     value : array_like, shape (k, n)
         Noise-free value, component-major.
     key : jax.Array
-        PRNG key; spacecraft i draws from ``fold_in(key, i)`` (:func:`coopsat._parts.per_spacecraft_normal`).
+        PRNG key; spacecraft i draws from ``fold_in(key, i)`` (:func:`coopsat.core.parts.per_spacecraft_normal`).
     sigma : array_like, shape (), (k,) or (k, n)
         Standard deviation in the units of ``value``: one for all, one per component, or one per
         component and spacecraft.

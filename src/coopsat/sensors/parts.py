@@ -23,7 +23,7 @@ Every noise term comes from :mod:`coopsat.sensors.noise` (spacecraft i draws fro
 
 import jax.numpy as jnp
 
-from coopsat._parts import OutputSpec, part
+from coopsat.core.parts import OutputSpec, part
 from coopsat.geometry.frames import eci_to_lvlh
 from coopsat.sensors.noise import gyro_bias_step, gyro_measure, per_spacecraft_normal, star_tracker_measure, white_noise
 

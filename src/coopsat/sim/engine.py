@@ -29,7 +29,7 @@ import time
 from dataclasses import dataclass, replace
 from functools import partial
 
-from coopsat import _interrupt, _jax
+from coopsat.core import runtime
 
 import jax
 import jax.numpy as jnp
@@ -472,7 +472,7 @@ def _run_chunk_batched(system, carry, first_record, n_records, chunk, groups=1, 
         return _run_group(replace(g_system, dt_s=dt_s), (*g_carry, tick), first_record, n_records, chunk)
 
     if devices > 1:
-        # One share of the groups per device (on the CPU: per core, coopsat._jax), each device
+        # One share of the groups per device (on the CPU: per core, coopsat.core.runtime), each device
         # running its groups in turn.
         from jax.sharding import Mesh, PartitionSpec
 
@@ -531,7 +531,7 @@ def output_specs(system):
 
     Returns
     -------
-    dict of str -> coopsat._parts.OutputSpec
+    dict of str -> coopsat.core.parts.OutputSpec
     """
     from coopsat.sim.outputs import measured_output_spec, state_output_specs
 
@@ -640,7 +640,7 @@ def bucket_runs(n_runs, full):
 
 
 def simulate(system, n_records, record_interval_s, *, batched=False, progress=False, chunk=None, names=None,
-             every_core=True, bucket=None):
+             every_core=True, bucket=None, cancel=None):
     """Run the closed loop for ``n_records`` record intervals.
 
     Parameters
@@ -660,7 +660,7 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     names : sequence of str, optional
         Spacecraft names, for error messages.
     every_core : bool
-        Share a batch's groups among every device (one per CPU core, ``coopsat._jax``). False
+        Share a batch's groups among every device (one per CPU core, ``coopsat.core.runtime``). False
         runs it on one device, so that its results do not depend on the machine's core count
         (grouping can change a result in the last bit).
     chunk : int, optional
@@ -670,6 +670,10 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
         Pad a batch to :func:`bucket_runs` (``n_runs``, ``bucket``) runs (copies of its last
         run, dropped from the results), so that batches of nearby sizes share one compiled
         program (a campaign: its batch size).
+    cancel : callable, optional
+        Called with no argument at the run's safe points (after compiling, after each compiled
+        chunk); it stops the run by raising. The command line passes
+        :func:`coopsat.workflows.interrupt.check`, so that a signal ends a run promptly.
 
     Returns
     -------
@@ -680,7 +684,7 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     NonFiniteStateError
         When the state becomes NaN or infinite; the run stops at the chunk where it happened.
     """
-    _jax.enable()
+    runtime.enable()
     if chunk is None:
         # Powers of two, so that runs of different lengths share compiled programs (the padded
         # record intervals of the last chunk are skipped, not simulated).
@@ -737,7 +741,8 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
     while len(_COMPILED) > _COMPILED_MAX:
         _COMPILED.pop(next(iter(_COMPILED)))
     compile_s = time.perf_counter() - t0
-    _interrupt.check()
+    if cancel is not None:
+        cancel()
 
     bar = None
     if progress:
@@ -753,7 +758,8 @@ def simulate(system, n_records, record_interval_s, *, batched=False, progress=Fa
             out = jax.tree_util.tree_map(np.asarray, out)
             _check_finite(out, t_s, c * chunk, batched, names)
             chunks.append(out)
-            _interrupt.check()
+            if cancel is not None:
+                cancel()
             if bar is not None:
                 bar.update(min(chunk, n_records - c * chunk))
         last = jax.tree_util.tree_map(np.asarray, final(system, carry))

@@ -4,7 +4,7 @@ The parts (controllers, actuators, sensors, …) describe their own outputs
 (``output_specs()``); this module describes the plant's.
 """
 
-from coopsat._parts import OutputSpec
+from coopsat.core.parts import OutputSpec
 
 _STATE_OUTPUTS = {
     "q": OutputSpec(("q_component",), "1", "", "attitude quaternion of body relative to inertial, scalar first"),

@@ -1,7 +1,7 @@
 """Engine output to a labelled :class:`xarray.Dataset` (dims time, spacecraft, component, …).
 
 Each sample's name, dimensions, units and frame come from the part that produced it
-(:class:`coopsat._parts.OutputSpec`), so a new plug-in's outputs need no change here.
+(:class:`coopsat.core.parts.OutputSpec`), so a new plug-in's outputs need no change here.
 
 Saved as netCDF-4 (h5netcdf), the dataset reads in Python (xarray), MATLAB (``ncread``) and
 Julia without this package. Each variable carries ``units`` and ``long_name``; vectors carry
@@ -23,7 +23,7 @@ def to_dataset(output, names, attrs, specs, batched=False):
     attrs : dict
         Global attributes (scenario TOML, seed, version, design checks…); values must be
         str, int or float.
-    specs : dict of str -> coopsat._parts.OutputSpec
+    specs : dict of str -> coopsat.core.parts.OutputSpec
         How each sample appears (:func:`coopsat.sim.engine.output_specs`).
     batched : bool
         Samples carry a leading ``run`` axis.

@@ -131,9 +131,9 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
     """Print a throughput table for each case and size, then the batched (campaign) lines, with
     each consensus row's fraction of the ceiling measured alongside. ``native=False``: the
     whole loop in XLA (no native kernel), for before/after comparisons in one sitting."""
-    from coopsat import _jax
+    from coopsat.core import runtime
 
-    _jax.enable()  # float64 before the cases' arrays are made (they are built here, not by a scenario)
+    runtime.enable()  # float64 before the cases' arrays are made (they are built here, not by a scenario)
     import jax
 
     from coopsat.sim.native.pool import PARALLEL_MIN

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from coopsat.analysis.papers import paper_modules
-from coopsat.folders import atomic_folder, check_folder, json_ready
+from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
 from coopsat.workflows.pipeline import analyse
 from coopsat.scenarios.load import load_scenario
 from coopsat.workflows.sweep import run_batch

@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 
 import coopsat
-from coopsat import _interrupt
+from coopsat.workflows import interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import run_metrics
 from coopsat.analysis.papers import explainers, paper_metrics, paper_modules, paper_series
-from coopsat.folders import atomic_folder, check_folder, json_ready
+from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
 from coopsat.scenarios.load import ScenarioError, resolved_toml
 
@@ -147,7 +147,8 @@ def simulate_built(built, progress=False):
     from coopsat.sim.recorder import to_dataset
 
     scenario = built.scenario
-    out = simulate(built.system, built.n_records, built.record_interval_s, progress=progress, names=built.names)
+    out = simulate(built.system, built.n_records, built.record_interval_s, progress=progress, names=built.names,
+                   cancel=interrupt.check)
     attrs = {
         "scenario_name": scenario.name,
         "scenario_toml": resolved_toml(scenario),
@@ -319,7 +320,7 @@ def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=Non
     for note in built.warnings:
         if on_warning is not None:
             on_warning(note)
-    _interrupt.check()
+    interrupt.check()
     ds, out = simulate_built(built, progress=progress)
     metrics, rows = analyse(built, ds)
     checks = {c.name: c for c in built.checks.values()}
@@ -356,6 +357,6 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
     target = Path(out_dir) if out_dir is not None else Path("runs") / doc.name
     check_run_folder(target)
     result = run(doc, progress=progress, allow_long=allow_long, on_warning=on_warning)
-    _interrupt.check()
+    interrupt.check()
     result.save(target, figures=figures)
     return RunResult(target, result.dataset, result.metrics, result.comparison, result.warnings, result.compile_s, result.run_s)

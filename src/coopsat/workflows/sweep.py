@@ -5,7 +5,7 @@ length are zipped (run k takes the k-th value of each). With ``seeds`` = K every
 with the seeds ``seed … seed + K − 1`` and is summarised by the mean and the max of each metric
 over them. The runs are grouped by compiled structure (:func:`group_runs`) and each
 group runs as one vmapped batch (:func:`run_batch`, also the engine of
-:mod:`coopsat.workflows.tradeoff`); every run's metrics are those ``coopsat run`` reports for the same
+:mod:`coopsat.workflows.deep_space_tradeoff`); every run's metrics are those ``coopsat run`` reports for the same
 overrides.
 """
 
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat import _interrupt
+from coopsat.workflows import interrupt
 from coopsat.analysis.papers import paper_series
-from coopsat.folders import atomic_folder, check_folder, json_ready
+from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
 from coopsat.workflows.pipeline import analyse, metric_names, prepare
 from coopsat.scenarios.load import clip_echo, load_scenario, parse_value
 
@@ -204,7 +204,7 @@ def simulate_runs(builds, progress=False, every_core=True, bucket=None):
         first = builds[group[0]]
         out = simulate(
             stack_systems([builds[k].system for k in group]), first.n_records, first.record_interval_s,
-            batched=True, progress=progress, names=first.names, every_core=every_core, bucket=bucket,
+            batched=True, progress=progress, names=first.names, every_core=every_core, bucket=bucket, cancel=interrupt.check,
         )
         compile_s += out.compile_s
         run_s += out.run_s
@@ -213,7 +213,7 @@ def simulate_runs(builds, progress=False, every_core=True, bucket=None):
             one = RunOutput(out.t_s, {name: v[i] for name, v in out.samples.items()}, 0.0, 0.0)
             sc = builds[k].scenario
             datasets[k] = paper_series(to_dataset(one, builds[k].names, {"scenario_name": sc.name, "seed": sc.seed}, specs), builds[k])
-        _interrupt.check()
+        interrupt.check()
     return datasets, compile_s, run_s
 
 
@@ -341,7 +341,7 @@ def run_sweep(ref, varies, n_seeds=1, metrics=None, overrides=(), out_dir=None, 
     groups = group_runs(builds)
     known = set().union(*(metric_names(builds[g[0]]) for g in groups))
     _check_names(metrics, plots, known, fields, texts)
-    _interrupt.check()
+    interrupt.check()
     datasets, compile_s, run_s = simulate_runs(builds, progress)
     runs = []
     for k, (built, ds) in enumerate(zip(builds, datasets)):

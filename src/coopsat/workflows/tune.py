@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from coopsat.analysis.surrogates import surrogates
-from coopsat.folders import atomic_folder, check_folder, json_ready
+from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
 from coopsat.workflows.pipeline import analyse, prepare, simulate_built
 from coopsat.plugins import plugin_for
 from coopsat.scenarios.build import scenario_tables

@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from coopsat._parts import per_spacecraft_normal
+from coopsat.core.parts import per_spacecraft_normal
 from coopsat.geometry.quaternion import quat_error, quat_vector
 from coopsat.sensors.noise import (
     ARCSEC_RAD,

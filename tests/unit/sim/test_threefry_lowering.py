@@ -1,4 +1,4 @@
-"""coopsat._jax lowers small Threefry hashes unrolled on the CPU: the hash must stay Threefry-2x32
+"""coopsat.core.runtime lowers small Threefry hashes unrolled on the CPU: the hash must stay Threefry-2x32
 (Random123's known answers, 20 rounds), small hashes must carry no loop, large ones keep JAX's."""
 
 import jax
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from jax.extend.random import threefry_2x32
 
-from coopsat._jax import UNROLLED_THREEFRY_MAX
+from coopsat.core.runtime import UNROLLED_THREEFRY_MAX
 
 # Random123 known-answer tests for threefry2x32_20: (key, counter) -> output.
 KNOWN = [

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from coopsat import _jax  # noqa: F401  (64-bit JAX, as the simulator runs it)
+from coopsat.core import runtime  # noqa: F401  (64-bit JAX, as the simulator runs it)
 
 import jax
 import jax.numpy as jnp

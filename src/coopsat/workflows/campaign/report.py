@@ -19,7 +19,7 @@ import numpy as np
 
 from coopsat.workflows.campaign.runner import MARKER, read_results, read_series
 from coopsat.workflows.campaign.spec import CampaignError
-from coopsat.folders import atomic_folder
+from coopsat.workflows.folders import atomic_folder
 
 FIXED = ("run_id", "status", "reason", "seed", "params")
 PERCENTILES = (1.0, 5.0, 50.0, 95.0, 99.0)

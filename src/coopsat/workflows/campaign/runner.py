@@ -272,13 +272,13 @@ def client_for(workers=None, scheduler=None, connect_timeout_s=5.0):
         except (OSError, TimeoutError) as err:
             raise CampaignError(f"--scheduler {scheduler}: cannot reach it within {connect_timeout_s:g} s ({type(err).__name__})") from None
     # Port 0: a dashboard on any free port (None still binds 8787, and warns when it is taken).
-    from coopsat import _jax
+    from coopsat.core import runtime
 
     # Workers are processes coopsat starts, so they get the CLI's settings (XLA's CPU options,
     # the compilation cache) through their environment; one worker per core already, so each
     # runs its batches on one CPU device.
     cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0",
-                           env=_jax.process_environment(cpu_devices=1))
+                           env=runtime.process_environment(cpu_devices=1))
     return Client(cluster)
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from coopsat.analysis.tradeoff import formation_fuel_bound_ns, fuel_on_front, matched_saving, pareto_front
-from coopsat.folders import atomic_folder, check_folder
+from coopsat.workflows.folders import atomic_folder, check_folder
 
 DEFAULT_SCALES_N = (0.03, 0.04, 0.05, 0.07, 0.1, 0.14, 0.2, 0.3)
 """Force scales swept by default, N (Bryson's acceptable force per axis)."""

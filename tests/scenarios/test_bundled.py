@@ -2,6 +2,7 @@
 
 import json
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +14,24 @@ from coopsat.scenarios.load import bundled_names, load_scenario
 SHORT = {"orbit-two-body": 100.0, "rigid-body-free": 2.0}
 SHORT.update({name: 500.0 for name in bundled_names() if name.startswith("deepspace-")})  # 50 s records
 SHORT.update({name: 200.0 for name in bundled_names() if name.startswith("cartwheel-")})  # 10 s records, PSO every 100 s
+
+# Every bundled scenario's metrics at these horizons, recorded at the commit before issue 27's
+# moves (tests/data/README.md): a move or a split must not change a result.
+BEFORE_MOVES = json.loads((Path(__file__).resolve().parents[1] / "data" / "bundled_metrics_a315990.json").read_text())
+
+
+def _assert_metrics_as_before(name, t_final, metrics):
+    before = BEFORE_MOVES["scenarios"].get(name)
+    if before is None:  # a scenario added after the moves
+        return
+    assert before["t_final_s"] == t_final
+    assert set(metrics) == set(before["metrics"])
+    for key, value in metrics.items():
+        old = before["metrics"][key]
+        if old is None or value is None:
+            assert value is old, key  # reached in one and not the other
+        else:
+            assert value == pytest.approx(old, rel=1e-12, abs=0.0), key
 
 
 @pytest.mark.parametrize("name", bundled_names())
@@ -42,6 +61,7 @@ def test_bundled_scenario_runs_and_writes_its_folder(name, tmp_path):
         assert load_scenario(replay).model_dump() == load_scenario(name, [f"sim.t_final_s={t_final}"]).model_dump()
     metrics = json.loads((folder / "metrics.json").read_text())
     assert all(v is None or isinstance(v, (int, float)) for v in metrics.values())
+    _assert_metrics_as_before(name, t_final, metrics)
     if load_scenario(name).published:
         rows = json.loads((folder / "comparison.json").read_text())
         assert rows and all(

@@ -99,8 +99,13 @@ def _cmd_validate(args):
     return 0
 
 
+def _print(lines):
+    for line in lines:
+        print(line)
+
+
 def _cmd_run(args):
-    from coopsat.workflows.pipeline import run_scenario
+    from coopsat.workflows.pipeline import run_scenario, summary_lines
 
     result = run_scenario(
         args.scenario,
@@ -113,165 +118,37 @@ def _cmd_run(args):
     )
     print(f"wrote {result.out_dir}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
     if not args.quiet:
-        for key, value in result.metrics.items():
-            print(f"  {key} = {'null' if value is None else f'{value:.6g}'}")
-        for row in result.comparison:
-            ours = "never" if row["ours"] is None else f"{row['ours']:.4g}"
-            print(f"  {row['quantity']}: published {row['published']:g}, ours {ours}: {row['verdict']}")
-            if row["reason"]:
-                print(f"    {row['reason']}")
-        if result.comparison:
-            print(f"  (comparison.md in {result.out_dir})")
+        _print(summary_lines(result))
     return 0
 
 
 def _cmd_margin(args):
-    from coopsat.workflows.pipeline import prepare
-    from coopsat.scenarios.load import ScenarioError, load_scenario
+    from coopsat.workflows.delay_gain import margin_lines
 
-    built = prepare(load_scenario(args.scenario, args.set))
-    check = built.checks.get("delay-margin")
-    if check is None:
-        raise ScenarioError(
-            f"{built.scenario.name}: controller {built.scenario.controller.kind} has no delay margin "
-            "(the leader-follower controller has one)"
-        )
-    if check.detail is None:
-        raise ScenarioError(check.note)
-    m = check.detail
-    print(check.note)
-    print(f"  delay_margin_s = {m.tau_s:.9g}")
-    print(f"  crossing_omega_rad_s = {m.omega_rad_s:.9g}")
-    print(f"  stable_without_delay = {str(m.stable_without_delay).lower()}")
-    if "largest_hop_delay_s" in check.metrics:
-        print(f"  largest_hop_delay_s = {check.metrics['largest_hop_delay_s']:g}")
+    _print(margin_lines(args.scenario, args.set))
     return 0
-
-
-def _leader_follower(args):
-    from coopsat.workflows.pipeline import prepare
-    from coopsat.scenarios.load import ScenarioError, load_scenario
-
-    built = prepare(load_scenario(args.scenario, args.set))
-    if built.scenario.controller.kind != "leader-follower":
-        raise ScenarioError(
-            f"{built.scenario.name}: design delay-gain needs a leader-follower controller, not {built.scenario.controller.kind}"
-        )
-    return built
-
-
-def _print_certificate(result):
-    for name, value in result.relative_margins.items():
-        print(f"    {name}: relative eigenvalue margin {value:.3g}")
 
 
 def _cmd_design_delay_gain(args):
-    from pathlib import Path
+    from coopsat.workflows.delay_gain import analyse_lines, design_gain_scenario
 
-    from coopsat.plugins import DesignError
-    from coopsat.plugins.leader_follower import design, largest_certified_h, largest_hop_delay_s
-    from coopsat.scenarios.load import ScenarioError
-
-    built = _leader_follower(args)
-    table, ctx = built.scenario.controller, built.context
     if args.analyse:
-        found = largest_certified_h(table, ctx)
-        margin = built.checks["delay-margin"].detail
-        print(f"{table.protocol} with K = [{table.gain[0]:g}, {table.gain[1]:g}]: the LMI certifies 0 <= d(t) <= "
-              f"{found.value:.6g} s (exact constant-delay margin {margin.tau_s:.6g} s)")
-        print(f"  condition: {found.result.condition}")
-        print(f"  solver {found.result.solver}, status {found.result.status}, {found.n_solves} problems solved")
-        _print_certificate(found.result)
-        return 0
-    h = args.h if args.h is not None else largest_hop_delay_s(ctx)
-    if not h:
-        raise ScenarioError("design delay-gain: give --h (the scenario's network has no delay to design for)")
-    try:
-        result, margin = design(table, ctx, h)
-    except DesignError as err:
-        raise ScenarioError(str(err)) from None
-    k = [float(v) for v in result.gain.ravel()]
-    print(f"{table.protocol}: K = [{k[0]:.6g}, {k[1]:.6g}] certified for 0 <= d(t) <= {result.h:g} s, "
-          f"V(t) <= V(0) exp(-{result.alpha:.4g} t)")
-    print(f"  condition: {result.condition} ({result.reference})")
-    print(f"  solver {result.solver}, status {result.status}, {result.n_evaluations} gains evaluated")
-    _print_certificate(result.result)
-    print(f"  exact constant-delay margin of this K: {margin.tau_s:.6g} s (>= the certified h, as it must be)")
-    source = args.scenario if not str(args.scenario).endswith(".toml") else str(Path(args.scenario).resolve())
-    out = Path(args.out or f"{built.scenario.name}-delay-gain.toml")
-    out.write_text(
-        f"# Written by coopsat design delay-gain: K certified by the delay-dependent LMI for every\n"
-        f"# time-varying single-hop delay 0 <= d(t) <= {result.h:g} s; decay rate {result.alpha:.4g} 1/s;\n"
-        f"# {result.solver}, {result.status}. Run it: coopsat run {out}\n"
-        f'extends = "{source}"\n\n[controller]\ngain = [{k[0]!r}, {k[1]!r}]\n',
-        encoding="utf-8",
-    )
-    print(f"wrote {out}")
+        _print(analyse_lines(args.scenario, args.set))
+    else:
+        _print(design_gain_scenario(args.scenario, args.set, h=args.h, out=args.out))
     return 0
 
 
-def _topology_graphs(args):
-    """name -> adjacency for each GRAPH argument: a named graph of --nodes nodes, a scenario's
-    network (its first graph), or an adjacency file (whitespace- or comma-separated)."""
-    from pathlib import Path
-
-    import numpy as np
-
-    from coopsat.network import topology
-    from coopsat.scenarios.load import ScenarioError, bundled_names, load_scenario
-
-    named = {"star": topology.star_adjacency, "ring": topology.ring_adjacency, "chain": topology.chain_adjacency,
-             "mesh": lambda n: topology.complete_adjacency(n), "complete": lambda n: topology.complete_adjacency(n)}
-    graphs = {}
-    for ref in args.graphs:
-        if ref in named:
-            graphs[ref] = named[ref](args.nodes)
-        elif ref in bundled_names() or ref.endswith(".toml"):
-            from coopsat.scenarios.build import build_adjacency
-
-            scenario = load_scenario(ref)
-            graphs[scenario.name] = build_adjacency(scenario.network, [sc.name for sc in scenario.spacecraft])
-        elif Path(ref).is_file():
-            try:
-                a = np.loadtxt(ref, delimiter="," if ref.endswith(".csv") else None, ndmin=2)
-                graphs[Path(ref).stem] = topology.validate_adjacency(a)
-            except ValueError as err:
-                raise ScenarioError(f"{ref}: not an adjacency matrix ({err})") from None
-        else:
-            raise ScenarioError(
-                f"topology: '{ref}' is not a named graph ({', '.join(named)}), a scenario, or an adjacency file"
-            )
-    return graphs
-
-
 def _cmd_topology(args):
-    from coopsat.analysis.papers.cartwheel_keeping import TABLE_1_LINK_RELIABILITY, TABLE_1_NODES, table1_rows
-    from coopsat.network.metrics import topology_table
-    from coopsat.scenarios.load import ScenarioError
+    from coopsat.workflows.topology import compare_topologies, table_lines
 
-    if not 0.0 <= args.link_reliability <= 1.0:
-        raise ScenarioError(f"--link-reliability {args.link_reliability:g}: must be a probability in [0, 1]")
-    method, samples = ("monte-carlo", args.monte_carlo) if args.monte_carlo else ("auto", 100_000)
-    rows = topology_table(_topology_graphs(args), args.link_reliability, method=method, samples=samples)
-    print(f"link reliability {args.link_reliability:g}; reliability = mean two-terminal reliability over ordered pairs")
-    print(f"{'graph':<24}{'n':>5}{'links':>7}{'avg path':>10}{'reliability':>13}{'  method (95% CI)':<34}{'λ2':>8}  tree")
-    for r in rows:
-        how = r["reliability_method"] if r["reliability_method"] == "exact" else (
-            f"MC [{r['reliability_ci_low']:.4f}, {r['reliability_ci_high']:.4f}]")
-        print(f"{r['name'][:23]:<24}{r['n']:>5}{r['links']:>7}{r['average_shortest_path']:>10.4g}"
-              f"{r['reliability']:>13.6f}  {how:<32}{r['algebraic_connectivity']:>8.4g}  {'yes' if r['spanning_tree'] else 'no'}")
-    if args.nodes == TABLE_1_NODES and args.link_reliability == TABLE_1_LINK_RELIABILITY:
-        compared = table1_rows(rows)
-        if compared:
-            print("\nTable 1 of the cartwheel paper (SPEC §2), published beside ours:")
-            for c in compared:
-                print(f"  {c['name']:<9}{c['quantity']:<23}{c['published']:>8g}{c['ours']:>11.6g}  {c['verdict']}"
-                      + (f": {c['reason']}" if c["reason"] else ""))
+    rows = compare_topologies(args.graphs, args.nodes, args.link_reliability, args.monte_carlo)
+    _print(table_lines(rows, args.nodes, args.link_reliability))
     return 0
 
 
 def _cmd_tradeoff(args):
-    from coopsat.workflows.deep_space_tradeoff import DEFAULT_SCALES_N, TradeoffError, run_tradeoff
+    from coopsat.workflows.deep_space_tradeoff import DEFAULT_SCALES_N, TradeoffError, run_tradeoff, summary_lines
 
     try:
         scales = [float(v) for v in args.scales.split(",")] if args.scales else list(DEFAULT_SCALES_N)
@@ -286,62 +163,32 @@ def _cmd_tradeoff(args):
     rows, comparisons, compile_s, run_s = run_tradeoff(args.scenarios, out, scales, coords, progress=not args.quiet,
                                                        tune_fuel=args.tune_fuel, tune_iter=args.tune_iter, report=report)
     print(f"wrote {out}  ({len(rows)} runs; compile {compile_s:.2f} s, run {run_s:.2f} s)")
-    for r in (r for r in rows if r["design"] == "tuned"):
-        settle = "never" if r["settling_time_s"] is None else f"{r['settling_time_s']:.0f} s"
-        print(f"  tuned gain ({r['coordinates']}) at LQR {r['force_scale_n']:g} N: fuel {r['fuel_l1_ns']:.4g} N s against LQR's "
-              f"{r['start_fuel_l1_ns']:.4g} (settling {settle}, asked {r['start_settling_time_s']:.0f} s; "
-              f"rest-to-rest bound {r['fuel_bound_ns']:.4g} N s)")
-    for c in comparisons:
-        what = f"  LMI {c['lmi']:<12} vs LQR {c['lqr']:<12}"
-        if c["overlap_s"] is None:
-            print(f"{what}: the fronts do not overlap in settling time")
-            continue
-        p = c["saving_percent"]
-        print(f"{what}: at matched settling time {c['overlap_s'][0]:.0f}–{c['overlap_s'][1]:.0f} s the LMI saves "
-              f"{min(p):+.1f} … {max(p):+.1f} % (median {sorted(p)[len(p) // 2]:+.1f} %; published 10.6 %)")
+    _print(summary_lines(rows, comparisons))
     print(f"  (comparison.md, tradeoff.png in {out})")
     return 0
 
 
 def _cmd_sweep(args):
-    from coopsat.workflows.sweep import parse_plot, parse_vary, printed_metrics, run_sweep, table_lines
+    from coopsat.workflows.sweep import parse_plot, parse_vary, run_sweep, summary_lines
 
     varies = [parse_vary(spec) for spec in args.vary]
     metrics = list(dict.fromkeys(m.strip() for m in args.metrics.split(","))) if args.metrics is not None else None
     plots = [parse_plot(spec) for spec in args.plot]
     result = run_sweep(args.scenario, varies, n_seeds=args.seeds, metrics=metrics, overrides=args.set,
                        out_dir=args.out, plots=plots, progress=not args.quiet)
-    n_points, n_runs = len(result.points), len(result.runs)
-    print(f"{args.scenario}: {n_points} points x {args.seeds} seed{'s' if args.seeds > 1 else ''} = {n_runs} runs in "
-          f"{result.n_batches} batch{'es' if result.n_batches > 1 else ''} (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
-    shown = printed_metrics(result, metrics)
-    for line in table_lines(result, shown):
-        print(line)
-    notes = [f"mean / max over {args.seeds} seeds"] if args.seeds > 1 else []
-    if len(shown) < len(result.metrics):
-        where = f"sweep.csv and sweep.json in {args.out}" if args.out else "--out DIR writes them"
-        notes.append(f"{len(shown)} of {len(result.metrics)} metrics shown; --metrics m1,m2 chooses, {where}")
-    if notes:
-        print(f"({'; '.join(notes)})")
+    _print(summary_lines(result, args.scenario, args.seeds, metrics, args.out))
     if args.out:
         print(f"wrote {args.out}")
     return 0
 
 
 def _cmd_pair(args):
-    from coopsat.workflows.pair import check_pair_folder, run_pair, write_pair_folder
+    from coopsat.workflows.pair import check_pair_folder, run_pair, table_lines, write_pair_folder
 
     if args.out:
         check_pair_folder(args.out)  # before the runs, not after
     result = run_pair(args.a, args.b, n_seeds=args.seeds, overrides=args.set, progress=not args.quiet)
-    a, b = result.names
-    print(f"{a} vs {b}: {len(result.seeds)} seed{'s' if len(result.seeds) > 1 else ''} each "
-          f"(compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
-    shown = [r for r in result.table() if not args.metrics or r["metric"] in args.metrics.split(",")]
-    width = max((len(r["metric"]) for r in shown), default=6)
-    print(f"{'metric':<{width}}  {'A (mean)':>12}  {'B (mean)':>12}  {'B - A':>12}")
-    for r in shown:
-        print(f"{r['metric']:<{width}}  {r['a_mean']:>12.6g}  {r['b_mean']:>12.6g}  {r['diff_mean']:>12.6g}")
+    _print(table_lines(result, args.metrics.split(",") if args.metrics else None))
     if args.out:
         from coopsat.plots.pair import pair_figure
 
@@ -407,38 +254,46 @@ def _cmd_bench(args):
     return 0
 
 
-def build_parser():
-    """The argument parser (exposed for tests and documentation)."""
-    p = argparse.ArgumentParser(prog="coopsat", description="Cooperative control of spacecraft formations.")
-    sub = p.add_subparsers(dest="command", required=True)
+_SET_HELP = "override a field before validation, e.g. --set controller.period_s=0.01 (repeatable)"
 
+
+def _add_list(sub):
     sub.add_parser("list", help="list the bundled scenarios").set_defaults(func=_cmd_list)
 
+
+def _add_show(sub):
     show = sub.add_parser("show", help="print a scenario's TOML (bundled name or file)")
     show.add_argument("name")
     show.add_argument("--resolved", action="store_true", help="with every default filled in and 'extends' resolved")
     show.set_defaults(func=_cmd_show)
 
-    set_help = "override a field before validation, e.g. --set controller.period_s=0.01 (repeatable)"
+
+def _add_validate(sub):
     val = sub.add_parser("validate", help="validate a scenario (file or bundled name) and run its design checks")
     val.add_argument("scenario")
-    val.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    val.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
     val.set_defaults(func=_cmd_validate)
 
+
+def _add_run(sub):
     run = sub.add_parser("run", help="run a scenario and write its run folder")
     run.add_argument("scenario", help="bundled scenario name or path to a .toml file")
     run.add_argument("--out", help="run folder (default runs/<scenario name>)")
-    run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
     run.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     run.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no metrics on stdout")
     run.add_argument("--allow-long", action="store_true", help="run even when the estimated wall time is above 30 min")
     run.set_defaults(func=_cmd_run)
 
+
+def _add_margin(sub):
     margin = sub.add_parser("margin", help="exact constant-delay margin of a scenario's delayed consensus law")
     margin.add_argument("scenario")
-    margin.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    margin.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
     margin.set_defaults(func=_cmd_margin)
 
+
+def _add_design(sub):
     design_p = sub.add_parser("design", help="design-time synthesis")
     design_sub = design_p.add_subparsers(dest="what", required=True)
     dg = design_sub.add_parser(
@@ -448,9 +303,11 @@ def build_parser():
     dg.add_argument("--h", type=float, help="delay bound to certify, s (default: the network's largest single-hop delay)")
     dg.add_argument("--analyse", action="store_true", help="no synthesis: the largest h the LMI certifies for the scenario's K")
     dg.add_argument("--out", help="file that receives the designed gain (default <scenario>-delay-gain.toml)")
-    dg.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    dg.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
     dg.set_defaults(func=_cmd_design_delay_gain)
 
+
+def _add_topology(sub):
     topo = sub.add_parser("topology", help="compare communication graphs: path length, reliability, connectivity")
     topo.add_argument("graphs", nargs="+", metavar="GRAPH",
                       help="star, ring, mesh, chain; a scenario (its network); or an adjacency file (.csv or .txt)")
@@ -459,6 +316,8 @@ def build_parser():
     topo.add_argument("--monte-carlo", type=int, metavar="K", help="estimate reliability from K random link states")
     topo.set_defaults(func=_cmd_topology)
 
+
+def _add_tradeoff(sub):
     trade = sub.add_parser(
         "tradeoff", help="fuel against settling time of formation designs, swept over their weight (SPEC §4)"
     )
@@ -472,6 +331,8 @@ def build_parser():
     trade.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     trade.set_defaults(func=_cmd_tradeoff)
 
+
+def _add_sweep(sub):
     sweep = sub.add_parser(
         "sweep", help="run a scenario over values of any field(s) and tabulate its metrics",
         description="Run a scenario once per value of one or more fields and tabulate its metrics. Several --vary "
@@ -489,10 +350,12 @@ def build_parser():
     sweep.add_argument("--plot", action="append", default=[], metavar="X:Y",
                        help="draw metric Y against X (a metric or a varied field) into DIR/sweep_X_Y.png; needs --out (repeatable)")
     sweep.add_argument("--out", metavar="DIR", help="folder for sweep.csv (one row per run), sweep.json and the plots")
-    sweep.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help + "; applied to every run")
+    sweep.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP + "; applied to every run")
     sweep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     sweep.set_defaults(func=_cmd_sweep)
 
+
+def _add_pair(sub):
     pair = sub.add_parser(
         "pair", help="run two scenarios on the same seeds and compare them (paired differences)",
         description="Run scenarios A and B on the same seeds (same sensor noise and disturbance realisations; they must "
@@ -504,10 +367,12 @@ def build_parser():
     pair.add_argument("--seeds", type=int, default=3, metavar="K", help="seeds seed(A) … seed(A)+K-1 (default 3)")
     pair.add_argument("--metrics", metavar="M1,M2,...", help="metrics to print (default all common ones)")
     pair.add_argument("--out", metavar="DIR", help="folder for pair.md, pair.nc (series and B - A), pair.png, pair.json")
-    pair.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help + "; applied to both")
+    pair.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP + "; applied to both")
     pair.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     pair.set_defaults(func=_cmd_pair)
 
+
+def _add_tune(sub):
     tn = sub.add_parser(
         "tune", help="tune scenario fields (gains) by gradient through the closed loop, then re-run it exactly",
         description="Minimise a run metric over continuous scenario fields under constraints on others, with JAX "
@@ -524,10 +389,12 @@ def build_parser():
     tn.add_argument("--max-iter", type=int, default=50, help="SLSQP iterations (default 50)")
     tn.add_argument("--seed", type=int, default=0, help="seed of the drawn starts")
     tn.add_argument("--out", metavar="DIR", help="folder for tuned.toml, tune.md and tune.json")
-    tn.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=set_help)
+    tn.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
     tn.add_argument("--quiet", "-q", action="store_true", help="no per-iteration lines")
     tn.set_defaults(func=_cmd_tune)
 
+
+def _add_campaign(sub):
     camp = sub.add_parser("campaign", help="Monte Carlo campaigns: dispersed runs on Dask, resumable (docs/campaigns.md)")
     camp_sub = camp.add_subparsers(dest="campaign_command", required=True)
     c_run = camp_sub.add_parser("run", help="run (or resume) a campaign file into a folder")
@@ -546,13 +413,23 @@ def build_parser():
     c_report.add_argument("dir", help="campaign folder")
     c_report.set_defaults(func=_cmd_campaign_report)
 
+
+def _add_bench(sub):
     bench = sub.add_parser("bench", help="measure engine throughput (spacecraft-steps per second)")
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")
     bench.add_argument("--steps", type=int, default=None, help="ticks per timed run (default: scaled to N)")
     bench.add_argument("--batch", type=int, default=1000, help="runs of N = 5 in one batch (0: skip)")
     bench.add_argument("--no-native", action="store_true",
-                       help="keep the whole loop in XLA (no native CPU kernel; the engine before issue 11's kernels)")
+                       help="keep the whole loop in XLA (no native CPU kernel)")
     bench.set_defaults(func=_cmd_bench)
+
+
+def build_parser():
+    """The argument parser (exposed for tests and documentation)."""
+    p = argparse.ArgumentParser(prog="coopsat", description="Cooperative control of spacecraft formations.")
+    sub = p.add_subparsers(dest="command", required=True)
+    for add in (_add_list, _add_show, _add_validate, _add_run, _add_margin, _add_design, _add_topology, _add_tradeoff, _add_sweep, _add_pair, _add_tune, _add_campaign, _add_bench):
+        add(sub)
     return p
 
 

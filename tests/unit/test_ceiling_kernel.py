@@ -4,7 +4,6 @@ renormalisation, to float64 rounding."""
 
 import dataclasses
 import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np

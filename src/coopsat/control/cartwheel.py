@@ -22,7 +22,7 @@ import jax
 import jax.numpy as jnp
 
 from coopsat.core.parts import OutputSpec, part
-from coopsat.control.pso import grid_minimize, pso_minimize
+from coopsat.control.pso import pso_minimize
 from coopsat.dynamics.cw import PLANE_AXES_LVLH, cartwheel_state, cw_stm, transfer_impulse_l1
 
 

@@ -18,7 +18,6 @@ fresh interpreter). Two functions describe what changes, each documented where i
 
 import os
 import re
-import sys
 from importlib.metadata import version
 from pathlib import Path
 

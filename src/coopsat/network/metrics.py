@@ -436,10 +436,8 @@ def two_terminal_reliability(a, p, source, target, method="auto", samples=100_00
 
     Parameters
     ----------
-    a : array_like, shape (n, n)
-        Adjacency, ``A[i, j] > 0`` iff i hears j. n ≥ 2.
-    p : float
-        Probability that a link works, in [0, 1].
+    a, p
+        Adjacency ``(n, n)`` and link probability, as :func:`mean_pairwise_reliability`.
     source, target : int
         Transmitting and receiving node, ``source != target``.
     method, samples, seed

@@ -77,6 +77,19 @@ class PairResult:
         return rows
 
 
+def table_lines(result, metrics=None):
+    """What ``coopsat pair`` prints: the header and, per common metric (or those named in
+    ``metrics``), A and B (mean over seeds) and the paired difference B − A."""
+    a, b = result.names
+    n = len(result.seeds)
+    lines = [f"{a} vs {b}: {n} seed{'s' if n > 1 else ''} each (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)"]
+    shown = [r for r in result.table() if not metrics or r["metric"] in metrics]
+    width = max((len(r["metric"]) for r in shown), default=6)
+    lines.append(f"{'metric':<{width}}  {'A (mean)':>12}  {'B (mean)':>12}  {'B - A':>12}")
+    lines += [f"{r['metric']:<{width}}  {r['a_mean']:>12.6g}  {r['b_mean']:>12.6g}  {r['diff_mean']:>12.6g}" for r in shown]
+    return lines
+
+
 def _number(v):
     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
         return None

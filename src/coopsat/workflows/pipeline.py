@@ -327,6 +327,20 @@ def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=Non
     return Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built)
 
 
+def summary_lines(result):
+    """What ``coopsat run`` prints after the folder line: every metric, then each published
+    number beside ours with the verdict and its reason (a :class:`RunResult`)."""
+    lines = [f"  {key} = {'null' if value is None else f'{value:.6g}'}" for key, value in result.metrics.items()]
+    for row in result.comparison:
+        ours = "never" if row["ours"] is None else f"{row['ours']:.4g}"
+        lines.append(f"  {row['quantity']}: published {row['published']:g}, ours {ours}: {row['verdict']}")
+        if row["reason"]:
+            lines.append(f"    {row['reason']}")
+    if result.comparison:
+        lines.append(f"  (comparison.md in {result.out_dir})")
+    return lines
+
+
 def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, on_warning=None, allow_long=False):
     """Run a bundled scenario or scenario file and write its run folder (``coopsat run``).
 

@@ -435,3 +435,21 @@ def table_lines(result, metrics):
     ]
     widths = [max(len(str(c)) for c in column) for column in zip(header, *rows)]
     return ["  ".join(f"{c:<{w}}" for c, w in zip(line, widths)).rstrip() for line in [header, *rows]]
+
+
+def summary_lines(result, label, n_seeds, metrics=None, out_dir=None):
+    """What ``coopsat sweep`` prints: the runs and batches, the table (at most six metrics
+    unless ``metrics`` names them, :func:`printed_metrics`), and a note on what is not shown."""
+    n_points, n_runs = len(result.points), len(result.runs)
+    lines = [f"{label}: {n_points} points x {n_seeds} seed{'s' if n_seeds > 1 else ''} = {n_runs} runs in "
+             f"{result.n_batches} batch{'es' if result.n_batches > 1 else ''} "
+             f"(compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)"]
+    shown = printed_metrics(result, metrics)
+    lines += table_lines(result, shown)
+    notes = [f"mean / max over {n_seeds} seeds"] if n_seeds > 1 else []
+    if len(shown) < len(result.metrics):
+        where = f"sweep.csv and sweep.json in {out_dir}" if out_dir else "--out DIR writes them"
+        notes.append(f"{len(shown)} of {len(result.metrics)} metrics shown; --metrics m1,m2 chooses, {where}")
+    if notes:
+        lines.append(f"({'; '.join(notes)})")
+    return lines

@@ -61,18 +61,6 @@ def load_error(path, overrides=()):
     return msg
 
 
-def build_error(path):
-    """The one-line ScenarioError message of building ``path`` (which must load)."""
-    scenario = load_scenario(path)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DesignWarning)
-        with pytest.raises(ScenarioError) as info:
-            build(scenario)
-    msg = str(info.value)
-    assert "\n" not in msg, msg
-    return msg
-
-
 def build_error(path, overrides=()):
     """The one-line ScenarioError message of building ``path`` (loading succeeds)."""
     with pytest.raises(ScenarioError) as info:

@@ -1,0 +1,143 @@
+"""The leader–follower delay designs of ``coopsat margin`` and ``coopsat design delay-gain``
+(SPEC §3): the exact constant-delay margin, the delay bound the LMI certifies for a scenario's
+gain, and a gain certified for a time-varying delay written out as a scenario that extends the
+one it was designed for. Each returns the lines the command prints.
+"""
+
+import os
+from pathlib import Path
+
+from coopsat.plugins import DesignError
+from coopsat.scenarios.load import ScenarioError, load_scenario
+from coopsat.workflows.pipeline import prepare
+
+
+def _prepared(ref, overrides):
+    return prepare(load_scenario(ref, overrides))
+
+
+def margin_lines(ref, overrides=()):
+    """The exact constant-delay margin of a scenario's delayed consensus law, as printed lines.
+
+    Raises
+    ------
+    ScenarioError
+        When the controller has no delay margin, or the margin could not be computed.
+    """
+    built = _prepared(ref, overrides)
+    check = built.checks.get("delay-margin")
+    if check is None:
+        raise ScenarioError(
+            f"{built.scenario.name}: controller {built.scenario.controller.kind} has no delay margin "
+            "(the leader-follower controller has one)"
+        )
+    if check.detail is None:
+        raise ScenarioError(check.note)
+    m = check.detail
+    lines = [
+        check.note,
+        f"  delay_margin_s = {m.tau_s:.9g}",
+        f"  crossing_omega_rad_s = {m.omega_rad_s:.9g}",
+        f"  stable_without_delay = {str(m.stable_without_delay).lower()}",
+    ]
+    if "largest_hop_delay_s" in check.metrics:
+        lines.append(f"  largest_hop_delay_s = {check.metrics['largest_hop_delay_s']:g}")
+    return lines
+
+
+def _leader_follower(ref, overrides):
+    built = _prepared(ref, overrides)
+    if built.scenario.controller.kind != "leader-follower":
+        raise ScenarioError(
+            f"{built.scenario.name}: design delay-gain needs a leader-follower controller, not {built.scenario.controller.kind}"
+        )
+    return built
+
+
+def _certificate_lines(result):
+    return [f"    {name}: relative eigenvalue margin {value:.3g}" for name, value in result.relative_margins.items()]
+
+
+def analyse_lines(ref, overrides=()):
+    """No synthesis: the largest delay bound h the LMI certifies for the scenario's own gain,
+    beside the exact constant-delay margin, as printed lines."""
+    from coopsat.plugins.leader_follower import largest_certified_h
+
+    built = _leader_follower(ref, overrides)
+    table = built.scenario.controller
+    found = largest_certified_h(table, built.context)
+    margin = built.checks["delay-margin"].detail
+    return [
+        f"{table.protocol} with K = [{table.gain[0]:g}, {table.gain[1]:g}]: the LMI certifies 0 <= d(t) <= "
+        f"{found.value:.6g} s (exact constant-delay margin {margin.tau_s:.6g} s)",
+        f"  condition: {found.result.condition}",
+        f"  solver {found.result.solver}, status {found.result.status}, {found.n_solves} problems solved",
+        *_certificate_lines(found.result),
+    ]
+
+
+def gain_scenario_toml(source, result, gain, path):
+    """The scenario file ``path`` that extends ``source`` with the designed ``gain`` (two
+    numbers), its certificate in the header comment."""
+    return (
+        f"# Written by coopsat design delay-gain: K certified by the delay-dependent LMI for every\n"
+        f"# time-varying single-hop delay 0 <= d(t) <= {result.h:g} s; decay rate {result.alpha:.4g} 1/s;\n"
+        f"# {result.solver}, {result.status}. Run it: coopsat run {path}\n"
+        f'extends = "{source}"\n\n[controller]\ngain = [{gain[0]!r}, {gain[1]!r}]\n'
+    )
+
+
+def _write_atomically(path, text):
+    """Write ``text`` to ``path`` through a temporary sibling, so that an interrupted write
+    leaves the old file or none, never half of one."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def design_gain_scenario(ref, overrides=(), h=None, out=None):
+    """Design a gain certified for every time-varying single-hop delay ``0 ≤ d(t) ≤ h`` and
+    write it as a scenario extending ``ref``; returns the printed lines, the last naming the
+    file written.
+
+    Parameters
+    ----------
+    ref : str or coopsat.Scenario
+        A leader–follower scenario.
+    h : float, optional
+        Delay bound to certify, s (default: the network's largest single-hop delay).
+    out : str or Path, optional
+        The file to write (default ``<scenario name>-delay-gain.toml`` in the current folder).
+
+    Raises
+    ------
+    ScenarioError
+        Not a leader–follower scenario, no delay to design for, or no gain found.
+    """
+    from coopsat.plugins.leader_follower import design, largest_hop_delay_s
+
+    built = _leader_follower(ref, overrides)
+    table, ctx = built.scenario.controller, built.context
+    h = h if h is not None else largest_hop_delay_s(ctx)
+    if not h:
+        raise ScenarioError("design delay-gain: give --h (the scenario's network has no delay to design for)")
+    try:
+        result, margin = design(table, ctx, h)
+    except DesignError as err:
+        raise ScenarioError(str(err)) from None
+    k = [float(v) for v in result.gain.ravel()]
+    source = str(Path(ref).resolve()) if str(ref).endswith(".toml") else (ref if isinstance(ref, str) else built.scenario.name)
+    path = Path(out or f"{built.scenario.name}-delay-gain.toml")
+    _write_atomically(path, gain_scenario_toml(source, result, k, path))
+    return [
+        f"{table.protocol}: K = [{k[0]:.6g}, {k[1]:.6g}] certified for 0 <= d(t) <= {result.h:g} s, "
+        f"V(t) <= V(0) exp(-{result.alpha:.4g} t)",
+        f"  condition: {result.condition} ({result.reference})",
+        f"  solver {result.solver}, status {result.status}, {result.n_evaluations} gains evaluated",
+        *_certificate_lines(result.result),
+        f"  exact constant-delay margin of this K: {margin.tau_s:.6g} s (>= the certified h, as it must be)",
+        f"wrote {path}",
+    ]

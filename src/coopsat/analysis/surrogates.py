@@ -120,7 +120,10 @@ def spectral_radius_bound(m):
     a = m
     for j in range(GELFAND_SQUARINGS + 1):
         s = jnp.sqrt(jnp.sum(a**2))
-        log_rho = log_rho + jnp.log(s) / 2.0**j
+        # A power that vanishes (a nilpotent M, ρ = 0): log 0 = −∞ gives 0, not 0/0 = NaN.
+        nonzero = s > 0.0
+        s = jnp.where(nonzero, s, 1.0)
+        log_rho = log_rho + jnp.where(nonzero, jnp.log(s), -jnp.inf) / 2.0**j
         b = a / s
         a = b @ b
     return jnp.exp(log_rho)

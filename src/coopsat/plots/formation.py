@@ -15,7 +15,9 @@ def _design(built):
     from coopsat.plugins.formation import PLANES
 
     table = built.scenario.controller
-    return PLANES[table.plane], np.asarray(table.target_m, dtype=float)
+    target = np.asarray(table.target_m, dtype=float)
+    # target_m has any origin: the slots about their centroid, as the paths are drawn
+    return PLANES[table.plane], target - target.mean(axis=0)
 
 
 def trajectory_figure(ds, built):

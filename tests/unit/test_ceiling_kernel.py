@@ -11,7 +11,7 @@ import pytest
 
 pytest.importorskip("numba")
 
-from coopsat.workflows.bench import bench_system  # noqa: E402
+from coopsat.sim.synthetic import bench_system  # noqa: E402
 from coopsat.sim.engine import simulate  # noqa: E402
 
 TICKS = 300

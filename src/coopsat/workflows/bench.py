@@ -18,71 +18,6 @@ Prints numbers; asserts nothing (timings are not tests).
 import numpy as np
 
 
-DELAY_PERIODS = 200
-"""Delay of every link in the delayed-network case: 2 s at the benchmark's 0.01 s period."""
-
-
-def _network(links, delayed):
-    """Ideal network, or every link delayed by :data:`DELAY_PERIODS` (a ring buffer of 201
-    outboxes)."""
-    from coopsat.network.delay import DelayedNetwork
-    from coopsat.network.delivery import IdealNetwork
-    from coopsat.sim.system import as_arrays
-
-    weight, switch = links.weight[None], np.zeros(1, np.int64)
-    if not delayed:
-        return IdealNetwork(*as_arrays((links.src, links.dst, weight, switch)))
-    fixed = np.where(weight > 0, DELAY_PERIODS, 0)
-    return DelayedNetwork(
-        *as_arrays((links.src, links.dst, weight, (weight > 0).astype(np.int64), fixed, np.zeros_like(weight), switch,
-                    0, 0, 1, 1)),
-        period_ticks=1, buffer_periods=DELAY_PERIODS + 1, random=False, lossy=False, hold=True,
-    )
-
-
-def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=False, native=True):
-    """A random formation of ``n`` spacecraft for the benchmark (no orbit): free, or law (3)
-    on an undirected ring with an ideal torque actuator, over an ideal network or one that
-    delays every message by 2 s. ``native``: whether native CPU kernels may run the plant and the
-    law (:mod:`coopsat.sim.native`)."""
-    import jax
-
-    from coopsat.actuators.ideal import IdealTorque
-    from coopsat.control.consensus import ConsensusLaw
-    from coopsat.control.free import NoControl
-    from coopsat.dynamics.plant import PlantParams, PlantState
-    from coopsat.network.topology import links_from_adjacency, ring_adjacency
-    from coopsat.sim.system import Structure, System, as_arrays
-
-    rng = np.random.default_rng(seed)
-    q = rng.normal(size=(n, 4))
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    principal = rng.uniform(0.5, 1.5, size=(n, 3))  # body axes = principal axes (diagonal path)
-    zeros = np.zeros((n, 3))
-    links = links_from_adjacency(ring_adjacency(n) if controller != "none" and n > 1 else np.zeros((n, n)))
-    structure = Structure(
-        n_spacecraft=n, gravity="none", attitude="rigid-body", ticks_per_period=1, periods_per_record=record_ticks,
-        substeps=1, native=native,
-    )
-    if controller == "none":
-        law = NoControl()
-    else:
-        law = ConsensusLaw(*as_arrays((1.0, 2.0, 0.0, 0.0, [1.0, 0, 0, 0], np.zeros(3))), track=False, short_way=False)
-    return System(
-        structure,
-        *as_arrays((
-            dt_s, jax.random.PRNGKey(seed),
-            PlantState(q, rng.normal(scale=0.1, size=(n, 3)), zeros, zeros, zeros, zeros),
-            PlantParams(principal, 1.0 / principal, 0.0, 0.0, 1.0, np.full(n, np.nan), 0),
-        )),
-        controller=law,
-        network=_network(links, delayed),
-        sensors=(),
-        actuators=(IdealTorque(*as_arrays((0.05,))),),
-        disturbances=(),
-    )
-
-
 def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=True):
     """(compile s, best run s, spacecraft-steps/s) for ``ticks`` ticks of ``n`` spacecraft.
 
@@ -90,6 +25,7 @@ def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=T
     ``vmap``-ed loop, as a Monte Carlo campaign does; the rate counts every run's spacecraft.
     """
     from coopsat.sim.engine import simulate
+    from coopsat.sim.synthetic import bench_system
     from coopsat.sim.system import stack_systems
 
     record_ticks = min(1000, ticks)

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from coopsat.workflows.bench import bench_system
+from coopsat.sim.synthetic import bench_system
 from coopsat.sim.engine import run_samples, simulate
 from coopsat.sim.native.consensus import TARGET as LAW_TARGET
 from coopsat.sim.native.rigid_body import TARGET

@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from coopsat.workflows.bench import bench_system
+from coopsat.sim.synthetic import bench_system
 from coopsat.control.consensus import ConsensusLaw
 from coopsat.network.delay import DelayedNetwork
 from coopsat.network.delivery import IdealNetwork

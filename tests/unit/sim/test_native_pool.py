@@ -7,7 +7,7 @@ from dataclasses import replace
 import jax
 import numpy as np
 
-from coopsat.workflows.bench import bench_system
+from coopsat.sim.synthetic import bench_system
 from coopsat.network.delivery import IdealNetwork
 from coopsat.network.topology import links_from_adjacency
 from coopsat.sim.engine import run_samples, simulate

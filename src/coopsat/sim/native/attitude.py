@@ -1,12 +1,13 @@
 """The rigid-body kernels (:mod:`coopsat.sim.native.rigid_body`) as JAX functions: the smooth
 tick and the piecewise tick of a pulsed actuator."""
 
+from functools import partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from coopsat.sim.native import with_xla_derivatives
+from coopsat.sim.native import ffi, with_xla_derivatives
 
 _registered = False
 
@@ -19,6 +20,19 @@ def _register():
         jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(handler.ctypes), platform="cpu")
         jax.ffi.register_ffi_target(SEGMENTS_TARGET, jax.ffi.pycapsule(segments_handler.ctypes), platform="cpu")
         _registered = True
+
+
+def _spec(n_seg=None):
+    """What the handlers of :mod:`coopsat.sim.native.rigid_body` read (:func:`~coopsat.sim.
+    native.ffi.check_arguments`): the smooth tick's, or with ``n_seg`` segments the piecewise
+    tick's. M: every spacecraft of the call."""
+    f8, i8 = np.float64, np.int64
+    state = [("q_bi", f8, (4, "M")), ("omega_b", f8, (3, "M")), ("h_wheels_b", f8, (3, "M"))]
+    plant = [("inertia_kgm2", f8, (3, "M")), ("inertia_inv", f8, (3, "M"))]
+    if n_seg is None:
+        return (*state, ("torque_b", f8, (3, "M")), *plant, ("h_s", f8, ()), ("substeps", i8, ()), ("cores", i8, ()))
+    return (*state, ("torque_b", f8, (3 * n_seg, "M")), *plant, ("step_s", f8, (n_seg, "M")), ("substeps", i8, ()),
+            ("segments", i8, ()))
 
 
 def _rows(a, shape):
@@ -38,9 +52,9 @@ def _native(system, x, torque_b, t_s):
     # worker has one, and its neighbour the other core).
     cores = np.int64(len(jax.devices("cpu")))
 
-    call = jax.ffi.ffi_call(
-        TARGET, (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype)),
-        vmap_method="broadcast_all",
+    results = (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype))
+    call = partial(
+        ffi.call, TARGET, _spec(), results, vmap_method="broadcast_all",
         # One run, (k, n): the new state overwrites the old, and XLA keeps no copy of it a tick
         # (consensus N = 5: 11.1 -> 13.1 M spacecraft-steps/s). A batch-inner state (k, B, n)
         # reaches the call through a reshape, and aliasing that made XLA copy the state both
@@ -48,8 +62,8 @@ def _native(system, x, torque_b, t_s):
         input_output_aliases={0: 0, 1: 1} if x.q_bi.ndim == 2 else {},
     )
     p = system.plant
-    q, w = call(*(_rows(a, shape) for a in (x.q_bi, x.omega_b, x.h_wheels_b, torque_b, p.inertia_kgm2, p.inertia_inv)),
-                system.dt_s / sub, sub, cores)
+    q, w = call((*(_rows(a, shape) for a in (x.q_bi, x.omega_b, x.h_wheels_b, torque_b, p.inertia_kgm2, p.inertia_inv)),
+                 system.dt_s / sub, sub, cores))
     return x._replace(q_bi=q.reshape(x.q_bi.shape), omega_b=w.reshape(shape))
 
 
@@ -95,16 +109,16 @@ def _native_segments(system, x, torque_b, starts_s, lengths_s, t_s):
     shape = x.omega_b.shape
     m = int(np.prod(shape[1:]))
     n_seg, sub = lengths_s.shape[0], system.structure.substeps
-    call = jax.ffi.ffi_call(
-        SEGMENTS_TARGET, (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype)),
-        vmap_method="broadcast_all",
+    results = (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype))
+    call = partial(
+        ffi.call, SEGMENTS_TARGET, _spec(n_seg), results, vmap_method="broadcast_all",
         input_output_aliases={0: 0, 1: 1} if x.q_bi.ndim == 2 else {},  # as the smooth tick (_native)
     )
     p = system.plant
     torque_rows = jnp.broadcast_to(torque_b, (n_seg, *shape)).reshape(3 * n_seg, m)
-    q, w = call(_rows(x.q_bi, shape), _rows(x.omega_b, shape), _rows(x.h_wheels_b, shape), torque_rows,
-                _rows(p.inertia_kgm2, shape), _rows(p.inertia_inv, shape), _rows(lengths_s / sub, (n_seg, *shape[1:])),
-                np.int64(sub), np.int64(n_seg))
+    q, w = call((_rows(x.q_bi, shape), _rows(x.omega_b, shape), _rows(x.h_wheels_b, shape), torque_rows,
+                 _rows(p.inertia_kgm2, shape), _rows(p.inertia_inv, shape), _rows(lengths_s / sub, (n_seg, *shape[1:])),
+                 np.int64(sub), np.int64(n_seg)))
     return x._replace(q_bi=q.reshape(x.q_bi.shape), omega_b=w.reshape(shape))
 
 

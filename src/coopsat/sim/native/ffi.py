@@ -34,6 +34,54 @@ _EXECUTE = 3
 _METADATA = 1
 
 
+class KernelArgumentError(ValueError):
+    """A native kernel was handed a buffer of another shape or dtype than it reads."""
+
+
+def check_arguments(target, spec, args):
+    """Check every argument of a kernel call against the layout its handler reads, before
+    XLA is asked to call it: a mismatch is a Python error at trace time, never a read past the
+    end of a buffer.
+
+    Parameters
+    ----------
+    target : str
+        The kernel's FFI target (for the message).
+    spec : sequence of (name, dtype, shape)
+        Per argument, in order: its name, numpy dtype and shape, each dimension an int or a
+        letter; a letter stands for one size, the same wherever it appears.
+    args : sequence of array_like
+        The arguments, without vmap's leading dimensions (``vmap_method="broadcast_all"``
+        adds them, and the handlers read them as leading rows).
+
+    Raises
+    ------
+    KernelArgumentError
+        The number of arguments, a dtype or a dimension differs from ``spec``.
+    """
+    import numpy as np
+
+    if len(args) != len(spec):
+        raise KernelArgumentError(f"native kernel {target}: {len(args)} arguments, its handler reads {len(spec)}")
+    sizes = {}
+    for (name, dtype, pattern), a in zip(spec, args):
+        shape, got = tuple(np.shape(a)), np.dtype(getattr(a, "dtype", np.result_type(a)))
+        expected = tuple(sizes.setdefault(d, n) if isinstance(d, str) else d for d, n in zip(pattern, shape))
+        if got != np.dtype(dtype) or len(shape) != len(pattern) or shape != expected:
+            raise KernelArgumentError(
+                f"native kernel {target}: argument {name} is {got.name} {shape}, its handler reads "
+                f"{np.dtype(dtype).name} ({', '.join(map(str, pattern))})"
+            )
+
+
+def call(target, spec, results, args, **options):
+    """``jax.ffi.ffi_call(target, results, **options)(*args)`` after :func:`check_arguments`."""
+    import jax
+
+    check_arguments(target, spec, args)
+    return jax.ffi.ffi_call(target, results, **options)(*args)
+
+
 def _pointer_cast(ty):
     @intrinsic
     def cast(typingctx, address):

@@ -6,10 +6,18 @@ import jax.numpy as jnp
 import numpy as np
 
 from coopsat.control.consensus import reference_attitude
-from coopsat.sim.native import with_xla_derivatives
+from coopsat.sim.native import ffi, with_xla_derivatives
 from coopsat.sim.native.consensus import N_PARAMS, TARGET, handler
 
 jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(handler.ctypes), platform="cpu")
+
+SPEC = (
+    ("table_q", np.float64, (4, "T")), ("table_omega", np.float64, (3, "T")), ("q", np.float64, (4, "N")),
+    ("omega", np.float64, (3, "N")), ("index", np.int32, (1, "E")), ("dst", np.int32, (1, "E")),
+    ("weight", np.float64, (1, "E")), ("params", np.float64, (1, N_PARAMS)), ("flags", np.int64, (1, 4)),
+)
+"""What the handler of :data:`~coopsat.sim.native.consensus.TARGET` reads
+(:func:`~coopsat.sim.native.ffi.check_arguments`): T messages in the table, N spacecraft, E links."""
 
 
 def _native(law, t, y, inbox):
@@ -26,11 +34,9 @@ def _native(law, t, y, inbox):
     # campaign's worker).
     flags = np.array([[padded, law.short_way, law.track, len(jax.devices("cpu"))]], np.int64)
     row = lambda a: a.reshape(1, -1)  # noqa: E731
-    call = jax.ffi.ffi_call(TARGET, jax.ShapeDtypeStruct(y["omega"].shape, y["omega"].dtype),
-                            vmap_method="broadcast_all")
-    return call(table["q"], table["omega"], y["q"], y["omega"], row(index.astype(jnp.int32)),
-                row(inbox.dst.astype(jnp.int32)), row(jnp.broadcast_to(inbox.weight, index.shape) + zero), params,
-                flags)
+    args = (table["q"], table["omega"], y["q"], y["omega"], row(index.astype(jnp.int32)), row(inbox.dst.astype(jnp.int32)),
+            row(jnp.broadcast_to(inbox.weight, index.shape) + zero), params, flags)
+    return ffi.call(TARGET, SPEC, jax.ShapeDtypeStruct(y["omega"].shape, y["omega"].dtype), args, vmap_method="broadcast_all")
 
 
 def consensus_step(controller, t, y, inbox, state, key):

@@ -123,11 +123,15 @@ def _no_cpu():
     return 0
 
 
-def _sched_getcpu_address():
-    """glibc's ``sched_getcpu``, or a stand-in that says core 0 where the C library has none."""
+def _sched_getcpu_address(load_c_library=ctypes.CDLL):
+    """glibc's ``sched_getcpu``, or a stand-in that says core 0 where the C library has none.
+
+    ``load_c_library(None)`` opens the process's C library on Linux and macOS; on Windows it
+    raises ``TypeError`` (a name is required), and macOS's library has no ``sched_getcpu``
+    (``AttributeError``): both take the stand-in."""
     try:
-        return ctypes.cast(ctypes.CDLL(None).sched_getcpu, ctypes.c_void_p).value
-    except (AttributeError, OSError):
+        return ctypes.cast(load_c_library(None).sched_getcpu, ctypes.c_void_p).value
+    except (AttributeError, OSError, TypeError):
         return _no_cpu.address
 
 

@@ -8,7 +8,7 @@ own measurement row and the messages addressed to it, nothing else.
 
 Measurement transform T_i. Spacecraft s's row holds ``ρ_sj = r_j − r_s`` for every j; the
 formation's relative coordinates are ``y = (D ⊗ I_d) p`` with ``D 1 = 0``
-(:func:`coopsat.design.formation.relative_basis`), so ``y = (D ⊗ I_d) [ρ_s1 … ρ_sn]`` from
+(:func:`coopsat.design.formation_model.relative_basis`), so ``y = (D ⊗ I_d) [ρ_s1 … ρ_sn]`` from
 one row alone: this is T_i for the hub or any other choice of coordinates. A line of sight
 ``s–j`` that is blocked is rebuilt as ``ρ_sj = ρ_sk + ρ_kj`` from the row of a spacecraft k
 received over the network (paper Fig. 6), averaged over every k that can supply it. When a

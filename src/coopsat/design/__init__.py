@@ -19,9 +19,10 @@ name                   result                        what
 ``sampled_data_check`` :class:`SampledDataStability` consensus attitude laws sampled and held
 =====================  ============================  ==============================================
 
-The modules behind them (``coopsat.design.riccati``, ``.delay_exact``, ``.lmi``, ``.formation``,
-``.sampled_data``, …) are internal. No public name is also a submodule's name: importing a
-submodule sets the package attribute of its name, which would replace the function.
+The modules behind them (``coopsat.design.riccati``, ``.delay_exact``, ``.delay_bounds``,
+``.delay_gain``, ``.formation_synthesis``, ``.sampled_data``, …) are internal. No public name
+is also a submodule's name: importing a submodule sets the package attribute of its name,
+which would replace the function.
 """
 
 from __future__ import annotations
@@ -35,12 +36,12 @@ _PUBLIC = {
     "LQRResult": ("coopsat.design.riccati", "LQRResult"),
     "delay_margin": ("coopsat.design.delay_exact", "delay_margin"),
     "DelayMargin": ("coopsat.design.delay_exact", "DelayMargin"),
-    "certified_delay": ("coopsat.design.lmi", "certified_delay"),
-    "CertifiedBound": ("coopsat.design.lmi", "CertifiedBound"),
-    "design_delay_gain": ("coopsat.design.lmi", "design_delay_gain"),
-    "DelayGainDesign": ("coopsat.design.lmi", "DelayGainDesign"),
-    "formation_lmi": ("coopsat.design.formation", "formation_lmi"),
-    "LMIGain": ("coopsat.design.formation", "LMIGain"),
+    "certified_delay": ("coopsat.design.delay_bounds", "certified_delay"),
+    "CertifiedBound": ("coopsat.design.delay_bounds", "CertifiedBound"),
+    "design_delay_gain": ("coopsat.design.delay_gain", "design_delay_gain"),
+    "DelayGainDesign": ("coopsat.design.delay_gain", "DelayGainDesign"),
+    "formation_lmi": ("coopsat.design.formation_synthesis", "formation_lmi"),
+    "LMIGain": ("coopsat.design.formation_synthesis", "LMIGain"),
     "sampled_data_check": ("coopsat.design.sampled_data", "sampled_data_check"),
     "SampledDataStability": ("coopsat.design.sampled_data", "SampledDataStability"),
 }
@@ -48,9 +49,10 @@ _PUBLIC = {
 __all__ = sorted(_PUBLIC)
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazily (__getattr__)
+    from coopsat.design.delay_bounds import CertifiedBound, certified_delay
     from coopsat.design.delay_exact import DelayMargin, delay_margin
-    from coopsat.design.formation import LMIGain, formation_lmi
-    from coopsat.design.lmi import CertifiedBound, DelayGainDesign, certified_delay, design_delay_gain
+    from coopsat.design.delay_gain import DelayGainDesign, design_delay_gain
+    from coopsat.design.formation_synthesis import LMIGain, formation_lmi
     from coopsat.design.riccati import LQRResult, lqr
     from coopsat.design.sampled_data import SampledDataStability, sampled_data_check
 

@@ -174,6 +174,56 @@ def _root_speed(a0, terms, omega, tau):
     return float((-(left.conj() @ m_tau @ right) / (left.conj() @ m_s @ right)).real)
 
 
+def _unit_circle_roots(a0, mats, hops, scale):
+    """The z within 1e-4 of the unit circle where ``A(z) ⊗ I + I ⊗ A(1/z)`` is singular: the
+    finite generalised eigenvalues of the Kronecker-sum pencil (:func:`exact_delay_margin`)."""
+    p, q = _kronecker_pencil(a0, mats, hops)
+    alpha, beta = eig(p, q, right=False, homogeneous_eigvals=True)
+    if np.any((np.abs(alpha) < 1e-12 * scale) & (np.abs(beta) < 1e-12)):
+        raise ValueError("the Kronecker-sum pencil is singular; the crossings are not isolated")
+    finite = np.abs(beta) > 1e-12 * np.abs(alpha)
+    z_all = alpha[finite] / beta[finite]
+    return z_all[np.abs(np.abs(z_all) - 1.0) < 1e-4]
+
+
+def _crossings(a0, mats, hops, on_circle, scale):
+    """Distinct verified crossings ``(ω, φ)`` (ω > 0, φ = −arg z mod 2π) from the candidate z,
+    and the relative residual σ_min M(jω, φ/ω) / (ω + scale) of each (:func:`exact_delay_margin`)."""
+    terms = list(zip(mats, hops))
+    found = []  # distinct (ω, φ) pairs
+    residuals = {}  # (ω, φ) -> σ_min M(jω, φ/ω) / (ω + scale)
+    for z in on_circle:
+        z = z / abs(z)
+        a_z = a0 + sum(a_k * z**m_k for a_k, m_k in terms)
+        for lam in eigvals(a_z):
+            if abs(lam.real) > 1e-4 * scale:
+                continue
+            theta, lam = _polish_on_circle(a0, mats, hops, float(np.angle(z)), lam, scale)
+            omega, z_c = float(lam.imag), np.exp(1j * theta)
+            if omega < 0.0:
+                omega, z_c = -omega, z_c.conjugate()
+            if omega <= 1e-8 * scale:
+                continue
+            phi = float(np.mod(-np.angle(z_c), 2.0 * np.pi))
+            sigma = svd(characteristic_matrix(a0, terms, 1j * omega, phi / omega), compute_uv=False)[-1]
+            new = all(abs(omega - o) > 1e-8 * omega or abs(phi - p) > 1e-8 for o, p in found)
+            if sigma <= 1e-9 * (omega + scale) and new:
+                found.append((omega, phi))
+                residuals[(omega, phi)] = float(sigma / (omega + scale))
+    return found, residuals
+
+
+def _crossing_delays(found, tau_max_search):
+    """``(τ, ω)`` of every branch ``τ = (φ + 2πk)/ω`` up to ``tau_max_search`` (the first of each
+    crossing without it), by increasing τ."""
+    crossings = []
+    for omega, phi in found:
+        last = 0 if tau_max_search is None else math.floor((tau_max_search * omega - phi) / (2.0 * np.pi))
+        crossings += [((phi + 2.0 * np.pi * k) / omega, omega) for k in range(last + 1)]
+    crossings.sort()
+    return crossings
+
+
 def exact_delay_margin(a0, terms, tau_max_search=None):
     """Exact constant-delay margin of ``ẋ = A0 x + Σ_k A_k x(t − m_k τ)``.
 
@@ -224,42 +274,10 @@ def exact_delay_margin(a0, terms, tau_max_search=None):
     if not mats:
         return DelayMargin(math.inf, math.nan, True, [], math.nan, method)
 
-    p, q = _kronecker_pencil(a0, mats, hops)
-    alpha, beta = eig(p, q, right=False, homogeneous_eigvals=True)
-    if np.any((np.abs(alpha) < 1e-12 * scale) & (np.abs(beta) < 1e-12)):
-        raise ValueError("the Kronecker-sum pencil is singular; the crossings are not isolated")
-    finite = np.abs(beta) > 1e-12 * np.abs(alpha)
-    z_all = alpha[finite] / beta[finite]
-    on_circle = z_all[np.abs(np.abs(z_all) - 1.0) < 1e-4]
-
-    found = []  # distinct (ω, φ) pairs
-    residuals = {}  # (ω, φ) -> σ_min M(jω, φ/ω) / (ω + scale)
-    for z in on_circle:
-        z = z / abs(z)
-        a_z = a0 + sum(a_k * z**m_k for a_k, m_k in terms)
-        for lam in eigvals(a_z):
-            if abs(lam.real) > 1e-4 * scale:
-                continue
-            theta, lam = _polish_on_circle(a0, mats, hops, float(np.angle(z)), lam, scale)
-            omega, z_c = float(lam.imag), np.exp(1j * theta)
-            if omega < 0.0:
-                omega, z_c = -omega, z_c.conjugate()
-            if omega <= 1e-8 * scale:
-                continue
-            phi = float(np.mod(-np.angle(z_c), 2.0 * np.pi))
-            sigma = svd(characteristic_matrix(a0, terms, 1j * omega, phi / omega), compute_uv=False)[-1]
-            new = all(abs(omega - o) > 1e-8 * omega or abs(phi - p) > 1e-8 for o, p in found)
-            if sigma <= 1e-9 * (omega + scale) and new:
-                found.append((omega, phi))
-                residuals[(omega, phi)] = float(sigma / (omega + scale))
-
+    found, residuals = _crossings(a0, mats, hops, _unit_circle_roots(a0, mats, hops, scale), scale)
     if not found:
         return DelayMargin(math.inf, math.nan, True, [], math.nan, method)
-    crossings = []
-    for omega, phi in found:
-        last = 0 if tau_max_search is None else math.floor((tau_max_search * omega - phi) / (2.0 * np.pi))
-        crossings += [((phi + 2.0 * np.pi * k) / omega, omega) for k in range(last + 1)]
-    crossings.sort()
+    crossings = _crossing_delays(found, tau_max_search)
     tau_1, omega_1, phi_1 = min((phi / omega, omega, phi) for omega, phi in found)
     return DelayMargin(
         tau_s=float(tau_1),

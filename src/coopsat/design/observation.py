@@ -269,6 +269,59 @@ def _pack(values, shape):
     return float(arr) if arr.ndim == 0 else arr
 
 
+def _broadcast_inputs(inertia_kgm2, k1, k2, biases, sig_r, follower_sigmas):
+    """Inputs of :func:`relative_error_covariance` broadcast and checked: ``(inertia, k1, k2,
+    reference bias, follower bias, sigmas)``, the sigmas stacked in the order of SOURCES."""
+    sig_f = sig_r if follower_sigmas is None else tuple(follower_sigmas)
+    if len(sig_f) != 3:
+        raise ValueError("follower_sigmas must be (sigma_star_rad, sigma_gyro_rad_s, sigma_torque_nm)")
+    args = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (inertia_kgm2, k1, k2, *biases, *sig_r, *sig_f)))
+    inertia, g1, g2, b_r, b_f = args[:5]
+    sigmas = np.stack(args[5:])  # in the order of SOURCES
+    if np.any(inertia <= 0.0) or np.any(g1 <= 0.0) or np.any(g2 <= 0.0):
+        raise ValueError("inertia_kgm2, k1 and k2 must be > 0")
+    if np.any(sigmas < 0.0):
+        raise ValueError("noise standard deviations must be >= 0")
+    return inertia, g1, g2, b_r, b_f, sigmas
+
+
+def _collect_stats(per_law, shape, radius, delay, cooperative_feedforward):
+    """The :class:`RelativeErrorStats` of the per-axis results of both laws (flat, C order)."""
+
+    def field(key, part, source=None):
+        if source is None:
+            return _pack([sum(o[part].values()) for o in per_law[key]], shape)
+        return _pack([o[part][source] for o in per_law[key]], shape)
+
+    def contributions(key, part):
+        return MappingProxyType({s: field(key, part, s) for s in SOURCES})
+
+    def mean(key, which):
+        return _pack([o["mean"][which] for o in per_law[key]], shape)
+
+    return RelativeErrorStats(
+        std_reference_rad=np.sqrt(field("independent", "r")),
+        std_follower_independent_rad=np.sqrt(field("independent", "f")),
+        std_follower_cooperative_rad=np.sqrt(field("cooperative", "f")),
+        std_relative_independent_rad=np.sqrt(field("independent", "e")),
+        std_relative_cooperative_rad=np.sqrt(field("cooperative", "e")),
+        contributions_independent=contributions("independent", "e"),
+        contributions_cooperative=contributions("cooperative", "e"),
+        std_relative_independent_intersample_rad=np.sqrt(field("independent", "e_inter")),
+        std_relative_cooperative_intersample_rad=np.sqrt(field("cooperative", "e_inter")),
+        contributions_independent_intersample=contributions("independent", "e_inter"),
+        contributions_cooperative_intersample=contributions("cooperative", "e_inter"),
+        mean_reference_rad=mean("independent", "r"),
+        mean_follower_independent_rad=mean("independent", "f"),
+        mean_follower_cooperative_rad=mean("cooperative", "f"),
+        mean_relative_independent_rad=mean("independent", "e"),
+        mean_relative_cooperative_rad=mean("cooperative", "e"),
+        closed_loop_spectral_radius=_pack(radius, shape),
+        delay_periods=delay,
+        cooperative_feedforward=cooperative_feedforward,
+    )
+
+
 def relative_error_covariance(
     inertia_kgm2,
     k1,
@@ -331,61 +384,16 @@ def relative_error_covariance(
     if not period > 0.0:
         raise ValueError(f"period_s must be > 0, got {period_s!r}")
     sig_r = (sigma_star_rad, sigma_gyro_rad_s, sigma_torque_nm)
-    sig_f = sig_r if follower_sigmas is None else tuple(follower_sigmas)
-    if len(sig_f) != 3:
-        raise ValueError("follower_sigmas must be (sigma_star_rad, sigma_gyro_rad_s, sigma_torque_nm)")
-    args = np.broadcast_arrays(
-        *(np.asarray(x, dtype=float) for x in (inertia_kgm2, k1, k2, gyro_bias_reference_rad_s, gyro_bias_follower_rad_s, *sig_r, *sig_f))
-    )
-    inertia, g1, g2, b_r, b_f = args[:5]
-    sigmas = np.stack(args[5:])  # in the order of SOURCES
-    shape = inertia.shape
-    if np.any(inertia <= 0.0) or np.any(g1 <= 0.0) or np.any(g2 <= 0.0):
-        raise ValueError("inertia_kgm2, k1 and k2 must be > 0")
-    if np.any(sigmas < 0.0):
-        raise ValueError("noise standard deviations must be >= 0")
-
+    biases = (gyro_bias_reference_rad_s, gyro_bias_follower_rad_s)
+    inertia, g1, g2, b_r, b_f, sigmas = _broadcast_inputs(inertia_kgm2, k1, k2, biases, sig_r, follower_sigmas)
     radius = _stable_radius(inertia, g1, g2, period)
-
     per_law = {"independent": [], "cooperative": []}
-    for ix in np.ndindex(shape):
+    for ix in np.ndindex(inertia.shape):
         sig = tuple(float(x) for x in sigmas[(slice(None), *ix)])
         bias = (b_r[ix], b_f[ix])
         for key, law in (("independent", "independent"), ("cooperative", cooperative_feedforward)):
             per_law[key].append(_axis_stats(inertia[ix], g1[ix], g2[ix], period, sig, bias, delay, law))
-
-    def field(key, part, source=None):
-        if source is None:
-            return _pack([sum(o[part].values()) for o in per_law[key]], shape)
-        return _pack([o[part][source] for o in per_law[key]], shape)
-
-    def contributions(key, part):
-        return MappingProxyType({s: field(key, part, s) for s in SOURCES})
-
-    def mean(key, which):
-        return _pack([o["mean"][which] for o in per_law[key]], shape)
-
-    return RelativeErrorStats(
-        std_reference_rad=np.sqrt(field("independent", "r")),
-        std_follower_independent_rad=np.sqrt(field("independent", "f")),
-        std_follower_cooperative_rad=np.sqrt(field("cooperative", "f")),
-        std_relative_independent_rad=np.sqrt(field("independent", "e")),
-        std_relative_cooperative_rad=np.sqrt(field("cooperative", "e")),
-        contributions_independent=contributions("independent", "e"),
-        contributions_cooperative=contributions("cooperative", "e"),
-        std_relative_independent_intersample_rad=np.sqrt(field("independent", "e_inter")),
-        std_relative_cooperative_intersample_rad=np.sqrt(field("cooperative", "e_inter")),
-        contributions_independent_intersample=contributions("independent", "e_inter"),
-        contributions_cooperative_intersample=contributions("cooperative", "e_inter"),
-        mean_reference_rad=mean("independent", "r"),
-        mean_follower_independent_rad=mean("independent", "f"),
-        mean_follower_cooperative_rad=mean("cooperative", "f"),
-        mean_relative_independent_rad=mean("independent", "e"),
-        mean_relative_cooperative_rad=mean("cooperative", "e"),
-        closed_loop_spectral_radius=_pack(radius, shape),
-        delay_periods=delay,
-        cooperative_feedforward=cooperative_feedforward,
-    )
+    return _collect_stats(per_law, inertia.shape, radius, delay, cooperative_feedforward)
 
 
 def relative_error_transfer(inertia_kgm2, k1, k2, period_s, omega_rad_s, delay_periods=0, *, cooperative_feedforward="commanded"):

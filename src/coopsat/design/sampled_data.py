@@ -150,12 +150,6 @@ def _reduced(a, b, g, quotient):
     return w.T @ a @ w, w.T @ b, g @ w, w
 
 
-def spectral_radius_at(a, b, g, period_s, quotient):
-    """Spectral radius of the one-period map (restricted to the disagreement subspace if ``quotient``)."""
-    ar, br, gr, _ = _reduced(a, b, g, quotient)
-    return float(np.max(np.abs(np.linalg.eigvals(period_map(ar, br, gr, period_s)))))
-
-
 def max_stable_period(a, b, g, quotient, t_min_s=1e-6, t_max_s=1e3, n_grid=64):
     """Largest T with a stable one-period map for all periods up to T.
 

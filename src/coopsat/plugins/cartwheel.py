@@ -102,7 +102,7 @@ def design(table, ctx):
     import numpy as np
 
     from coopsat.design.cw import cw_matrices
-    from coopsat.design.formation import bryson_weights
+    from coopsat.design.lti import bryson_weights
     from coopsat.design.riccati import discretize, lqr
     from coopsat.plugins.force_actuators import require_translation
 

@@ -9,8 +9,8 @@ isolates the gain; ``architecture`` says whose measurements each spacecraft uses
 removes the common-mode force from the law and feeds back an open-loop estimate of the
 centroid's displacement (eq. 15). The in-loop part is
 :class:`coopsat.control.formation.LinearFormationSoftware`; the design math is
-:mod:`coopsat.design.formation`; metrics and the comparison with the paper are in
-:mod:`coopsat.analysis.papers.deep_space_2008`.
+:mod:`coopsat.design.formation_model` and :mod:`coopsat.design.formation_synthesis`; metrics and
+the comparison with the paper are in :mod:`coopsat.analysis.papers.deep_space_2008`.
 """
 
 from typing import Annotated, Literal
@@ -150,51 +150,53 @@ def _design(table, ctx, force_scale_n=None):
     import numpy as np
     from scipy.linalg import block_diag
 
-    from coopsat.design import formation as fd
-    from coopsat.design.riccati import lqr
+    from coopsat.design.formation_model import common_mode_projector, formation_model, observability_decomposition, reference_state
+    from coopsat.design.formation_synthesis import centroid_gain, lmi_state_feedback
+    from coopsat.design.lti import FormationDesignError, bryson_weights, nonzero_setpoint_feedforward
+    from coopsat.design.riccati import discretize, lqr
 
     p0, target, mass, axes = _geometry(table, ctx)
     n, d = p0.shape
     hub = _hub(table, ctx)
     scale = table.force_scale_n if force_scale_n is None else force_scale_n
     try:
-        model = fd.formation_model(n, d, mass)
-        dec = fd.observability_decomposition(model, table.coordinates, hub)
+        model = formation_model(n, d, mass)
+        dec = observability_decomposition(model, table.coordinates, hub)
         ny = (n - 1) * d
         c_y = np.hstack([np.eye(ny), np.zeros((ny, ny))])
-        q, r = fd.bryson_weights(
+        q, r = bryson_weights(
             np.r_[np.full(ny, table.position_scale_m), np.full(ny, table.velocity_scale_m_s)], np.full(n * d, scale)
         )
-        x_ref = fd.reference_state(dec, target)
-        x_start = fd.reference_state(dec, p0)
+        x_ref = reference_state(dec, target)
+        x_start = reference_state(dec, p0)
         if table.design == "gain":
             gain = None
             k = _given_gain(table, n * d, 2 * ny)
             u_ff = -k @ x_ref
         elif table.design == "lmi":
             e0 = float(np.linalg.norm(x_start - x_ref)) or 1.0
-            gain = fd.lmi_state_feedback(dec.a_o, dec.b_o, q, r, np.eye(2 * ny) / e0**2, objective=table.lmi_objective)
+            gain = lmi_state_feedback(dec.a_o, dec.b_o, q, r, np.eye(2 * ny) / e0**2, objective=table.lmi_objective)
             k = gain.gain
             u_ff = -k @ x_ref
         else:
             try:
                 k_lqr = lqr(dec.a_o, dec.b_o, q, r).K
             except ValueError as err:
-                raise fd.FormationDesignError(f"state feedback (LQR): {err}") from None
+                raise FormationDesignError(f"state feedback (LQR): {err}") from None
             gain = k_lqr
             k = -k_lqr
-            u_ff = fd.nonzero_setpoint_feedforward(dec.a_o, dec.b_o, c_y, k_lqr) @ (c_y @ x_ref)
+            u_ff = nonzero_setpoint_feedforward(dec.a_o, dec.b_o, c_y, k_lqr) @ (c_y @ x_ref)
         observer = _observer(dec, c_y, table.observer_bandwidth_rad_s)
         centroid = None
         if table.objective == "centroid-holding":
-            q_c, r_c = fd.bryson_weights(np.r_[np.full(d, table.position_scale_m), np.full(d, table.velocity_scale_m_s)], np.full(d, scale))
-            centroid = fd.centroid_gain(dec, q_c, r_c)
-            proj = fd.common_mode_projector(n, d)
+            q_c, r_c = bryson_weights(np.r_[np.full(d, table.position_scale_m), np.full(d, table.velocity_scale_m_s)], np.full(d, scale))
+            centroid = centroid_gain(dec, q_c, r_c)
+            proj = common_mode_projector(n, d)
             c_u = np.hstack([proj @ k, np.kron(np.ones((n, 1)), np.eye(d)) @ centroid.gain])
             u_ff = proj @ u_ff
         else:
             c_u = k
-    except fd.FormationDesignError as err:
+    except FormationDesignError as err:
         raise DesignError(f"controller: {err}") from None
     # Estimator: the observer of eq. (12) and, for centroid holding, the centroid's open-loop
     # displacement driven by the force expected to act (eq. 14 with x̂_ō from the start).
@@ -204,7 +206,7 @@ def _design(table, ctx, force_scale_n=None):
         a_c = np.block([[np.zeros((d, d)), np.eye(d)], [np.zeros((d, 2 * d))]])
         b_c = np.vstack([np.zeros((d, n * d)), np.kron(np.ones((1, n)), np.eye(d)) / (n * mass)])
         f, g_y, g_u = block_diag(f, a_c), np.vstack([g_y, np.zeros((2 * d, ny))]), np.vstack([g_u, b_c])
-    phi, gam = fd.discretize(f, np.hstack([g_y, g_u]), ctx.period_s)
+    phi, gam = discretize(f, np.hstack([g_y, g_u]), ctx.period_s)
     nz = f.shape[0]
     f_min, f_max = _thruster_model(ctx)
     part = {
@@ -220,7 +222,7 @@ def _design(table, ctx, force_scale_n=None):
         "force_max_n": f_max,
         "source": np.arange(n) if _architecture(table) == "decentralized" else np.full(n, hub),
     }
-    a_d, b_d = fd.discretize(dec.a_o, dec.b_o, ctx.period_s)
+    a_d, b_d = discretize(dec.a_o, dec.b_o, ctx.period_s)
     radius = float(np.max(np.abs(np.linalg.eigvals(closed_loop_matrix(a_d, b_d, c_y, part, np)))))
     return {
         "part": part, "k": k, "plant_d": (a_d, b_d, c_y), "gain": gain, "observer": observer, "centroid": centroid, "x_ref": x_ref, "p0": p0,
@@ -263,14 +265,14 @@ def _observer(dec, c_y, omega):
 
     import numpy as np
 
-    from coopsat.design import formation as fd
+    from coopsat.design.formation_synthesis import lmi_observer_gain
 
     ny = c_y.shape[0]
     a_n = np.block([[np.zeros((ny, ny)), np.eye(ny)], [np.zeros((ny, 2 * ny))]])
     if not np.allclose(dec.a_o, a_n):
         raise DesignError("controller: the observer's normalisation assumes relative double integrators")
     q_n = np.diag(np.r_[np.zeros(ny), np.ones(ny)])
-    unit = fd.lmi_observer_gain(a_n, c_y, q_n, np.eye(ny))
+    unit = lmi_observer_gain(a_n, c_y, q_n, np.eye(ny))
     gain = np.r_[np.full(ny, omega), np.full(ny, omega**2)][:, None] * unit.gain
     return dataclasses.replace(unit, gain=gain, closed_loop_eigs=np.linalg.eigvals(dec.a_o + gain @ c_y))
 
@@ -334,7 +336,7 @@ def tunables(table, ctx, part):
     import jax.numpy as jnp
     import numpy as np
 
-    from coopsat.design.formation import common_mode_projector
+    from coopsat.design.formation_model import common_mode_projector
 
     out = design(table, ctx)
     k0, x_ref = out["k"], jnp.asarray(out["x_ref"])

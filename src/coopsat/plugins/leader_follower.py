@@ -154,9 +154,9 @@ def certify(table, ctx, h_s, gain=None):
 
     Returns
     -------
-    coopsat.design.lmi.CertifiedBound
+    coopsat.design.delay_bounds.CertifiedBound
     """
-    from coopsat.design.lmi import max_decay_rate
+    from coopsat.design.delay_bounds import max_decay_rate
 
     return max_decay_rate(*error_system(table, ctx, gain), h_s)
 
@@ -166,9 +166,9 @@ def largest_certified_h(table, ctx, gain=None):
 
     Returns
     -------
-    coopsat.design.lmi.CertifiedBound
+    coopsat.design.delay_bounds.CertifiedBound
     """
-    from coopsat.design.lmi import max_certified_delay
+    from coopsat.design.delay_bounds import max_certified_delay
 
     return max_certified_delay(*error_system(table, ctx, gain))
 
@@ -180,7 +180,7 @@ def design(table, ctx, h_s):
 
     Returns
     -------
-    (coopsat.design.lmi.DelayGainDesign, coopsat.design.delay_exact.DelayMargin)
+    (coopsat.design.delay_gain.DelayGainDesign, coopsat.design.delay_exact.DelayMargin)
 
     Raises
     ------
@@ -191,7 +191,7 @@ def design(table, ctx, h_s):
     import numpy as np
 
     from coopsat.design.delay_exact import exact_delay_margin
-    from coopsat.design.lmi import design_gain
+    from coopsat.design.delay_gain import design_gain
 
     try:
         result = design_gain(

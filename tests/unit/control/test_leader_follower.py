@@ -111,7 +111,7 @@ def test_analysis_mode_certifies_less_than_the_exact_margin(capsys):
 @pytest.mark.slow
 def test_synthesis_writes_a_certified_gain_a_scenario_can_run(tmp_path, capsys):
     from coopsat.cli import main
-    from coopsat.design.lmi import certify_delay_bound
+    from coopsat.design.delay_lmi import certify_delay_bound
     from coopsat.plugins.leader_follower import error_system
 
     out = tmp_path / "designed.toml"

@@ -13,25 +13,25 @@ import numpy as np
 import pytest
 from scipy.linalg import expm, solve_continuous_are, solve_continuous_lyapunov
 
-from coopsat.design.formation import (
+from coopsat.design.formation_model import (
     COORDINATES,
-    FormationDesignError,
-    bryson_weights,
-    centroid_gain,
-    check_pair,
     common_mode_projector,
     formation_model,
-    kalman_controllability,
-    kalman_observability,
-    lmi_observer_gain,
-    lmi_state_feedback,
-    nonzero_setpoint_feedforward,
     observability_decomposition,
     output_map,
     pair_list,
     reference_map,
     reference_state,
     relative_basis,
+)
+from coopsat.design.formation_synthesis import centroid_gain, lmi_observer_gain, lmi_state_feedback
+from coopsat.design.lti import (
+    FormationDesignError,
+    bryson_weights,
+    check_pair,
+    kalman_controllability,
+    kalman_observability,
+    nonzero_setpoint_feedforward,
 )
 from coopsat.design.riccati import discretize, lqr
 

@@ -17,17 +17,11 @@ from scipy.linalg import solve_continuous_are
 from scipy.optimize import brentq
 from scipy.special import lambertw
 
-from coopsat.design.lmi import (
-    RTOL,
-    MatrixInequality,
-    certify_delay_bound,
-    check_inequality,
-    design_gain,
-    lqr_lmi,
-    max_certified_delay,
-    max_decay_rate,
-    solve_lmis,
-)
+from coopsat.design.delay_bounds import max_certified_delay, max_decay_rate
+from coopsat.design.delay_gain import design_gain
+from coopsat.design.delay_lmi import certify_delay_bound
+from coopsat.design.lmi import RTOL, MatrixInequality, check_inequality, solve_lmis
+from coopsat.design.lqr_lmi import lqr_lmi
 
 A_DI = np.array([[0.0, 1.0], [0.0, 0.0]])
 B_DI = np.array([[0.0], [1.0]])

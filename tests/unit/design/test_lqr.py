@@ -11,9 +11,9 @@ from scipy.linalg import expm, solve_continuous_are, solve_discrete_are
 
 import coopsat
 from coopsat.astro.constants import MU_EARTH_M3_S2, R_EARTH_M
-from coopsat.design import formation, sampled_data
+from coopsat.design import sampled_data
 from coopsat.design.cw import cw_matrices
-from coopsat.design.formation import bryson_weights
+from coopsat.design.lti import bryson_weights
 from coopsat.design.riccati import LQRResult, discretize, lqr
 
 N_CW = math.sqrt(MU_EARTH_M3_S2 / (R_EARTH_M + 500e3) ** 3)  # 500 km chief, rad/s
@@ -135,7 +135,9 @@ def test_discrete_tends_to_continuous_for_short_periods():
 
 
 def test_one_zero_order_hold_in_the_design_package():
-    assert formation.discretize is discretize
+    design = Path(coopsat.__file__).parent / "design"
+    defined = sorted(p.name for p in design.glob("*.py") if "def discretize(" in p.read_text(encoding="utf-8"))
+    assert defined == ["riccati.py"]
     a, b, g = np.array([[0.0, 0.5], [0.0, 0.0]]), np.array([[0.0], [0.1]]), np.array([[1.0, 2.0]])
     phi, gam = discretize(a, b, 0.7)
     np.testing.assert_array_equal(sampled_data.period_map(a, b, g, 0.7), phi - gam @ g)

@@ -59,13 +59,13 @@ def test_errors_are_raised_every_time_not_stored():
 def test_the_delay_lmi_bisection_is_shared_between_equal_calls():
     """A campaign's runs certify the same delay bound: the second call is the stored answer,
     equal to a fresh solve."""
-    from coopsat.design import lmi
+    from coopsat.design import delay_bounds
 
     a0, terms = np.array([[0.0, 1.0], [0.0, 0.0]]), [(np.array([[0.0, 0.0], [-1.0, -1.5]]), 1.0)]
-    lmi.max_decay_rate.cache.clear()
-    first = lmi.max_decay_rate(a0, terms, 0.2)
-    assert len(lmi.max_decay_rate.cache) == 1
-    again = lmi.max_decay_rate(a0, terms, 0.2)
-    assert len(lmi.max_decay_rate.cache) == 1
-    fresh = lmi.max_decay_rate.__wrapped__(a0, terms, 0.2)
+    delay_bounds.max_decay_rate.cache.clear()
+    first = delay_bounds.max_decay_rate(a0, terms, 0.2)
+    assert len(delay_bounds.max_decay_rate.cache) == 1
+    again = delay_bounds.max_decay_rate(a0, terms, 0.2)
+    assert len(delay_bounds.max_decay_rate.cache) == 1
+    fresh = delay_bounds.max_decay_rate.__wrapped__(a0, terms, 0.2)
     assert first.value == again.value == fresh.value > 0.0

@@ -102,8 +102,43 @@ def design(table, ctx):
     import numpy as np
 
     from coopsat.design.cw import cw_matrices
-    from coopsat.design.lti import bryson_weights
-    from coopsat.design.riccati import discretize, lqr
+    from coopsat.design.riccati import discretize
+
+    _require_inputs(table, ctx)
+    n_sc = ctx.n
+    chief = _index(table.chief, ctx, "controller.chief")
+    deputies = [_index(d, ctx, f"controller.deputies[{k}]") for k, d in enumerate(table.deputies)]
+    if chief in deputies or len(set(deputies)) != len(deputies):
+        raise DesignError(f"controller.deputies: must be distinct and exclude the chief, got {table.deputies}")
+    a, e, n = _chief_orbit(table, ctx)
+    period = ctx.period_s
+    replan = _replan_periods(table, period, n)
+    phase = np.zeros(n_sc)
+    phase[deputies] = 2 * np.pi * np.arange(len(deputies)) / len(deputies)
+    deputy = np.zeros(n_sc)
+    deputy[deputies] = 1.0
+    mass = np.array([s.mass_kg for s in ctx.scenario.spacecraft], dtype=float)
+    a_cw, b_cw = cw_matrices(n)
+    phi, gam = discretize(a_cw, b_cw, period)
+    gain, radius = _keeping_gains(table, ctx, deputies, mass, (a_cw, b_cw, phi, gam))
+    part = {
+        "rho_m": table.radius_m, "n_rad_s": n, "phase_rad": phase, "deputy": deputy,
+        "chief": np.int32(chief), "source_weight": _source_weights(table, ctx, chief, deputies, deputy), "gain": gain,
+        "mass_kg": mass, "psi0_rad": math.radians(table.psi_deg), "psi_bound_rad": math.radians(table.psi_bound_deg),
+        "horizon_s": table.plan_horizon_s,
+    }
+    static = {
+        "period_s": float(period), "targets": table.targets, "compensation": table.delay_compensation, "replan_every": replan,
+        "particles": table.pso_particles, "iterations": table.pso_iterations,
+    }
+    with np.errstate(divide="ignore"):
+        tc = -period / np.log(np.abs(np.linalg.eigvals(phi - gam @ gain[deputies[0]])))
+    return {"part": part, "static": static, "a_m": a, "e": e, "n_rad_s": n, "closed_loop_radius": radius, "time_constants_s": np.sort(tc)}
+
+
+def _require_inputs(table, ctx):
+    """The run has what cartwheel keeping reads and commands: translation, relative navigation
+    about its chief, impulse-bit thrusters."""
     from coopsat.plugins.force_actuators import require_translation
 
     require_translation(ctx, "controller", "cartwheel keeping")
@@ -114,13 +149,11 @@ def design(table, ctx):
         )
     if not any(a.kind == "impulse-bit-thrusters" for a in ctx.scenario.actuator_list):
         raise DesignError('actuators: cartwheel-keeping is measured in impulse bits; add [[actuators]] kind = "impulse-bit-thrusters"')
-    n_sc = ctx.n
-    chief = _index(table.chief, ctx, "controller.chief")
-    deputies = [_index(d, ctx, f"controller.deputies[{k}]") for k, d in enumerate(table.deputies)]
-    if chief in deputies or len(set(deputies)) != len(deputies):
-        raise DesignError(f"controller.deputies: must be distinct and exclude the chief, got {table.deputies}")
-    a, e, n = _chief_orbit(table, ctx)
-    period = ctx.period_s
+
+
+def _replan_periods(table, period, n):
+    """Control periods between the chief's PSO solves (0: never), after checking that the
+    planner's transfer stays clear of the CW transfer's singularity (mean motion ``n``)."""
     replan = 0
     if table.replan_every_s > 0:
         replan = whole_ratio(table.replan_every_s, period)
@@ -131,24 +164,38 @@ def design(table, ctx):
             f"controller.plan_horizon_s ({table.plan_horizon_s:g} s) must be under {PLAN_HORIZON_MAX_RAD / (2 * math.pi):.2f} "
             f"orbit ({PLAN_HORIZON_MAX_RAD / n:.0f} s): the two-impulse CW transfer is singular at half an orbit"
         )
-    phase = np.zeros(n_sc)
-    phase[deputies] = 2 * np.pi * np.arange(len(deputies)) / len(deputies)
-    deputy = np.zeros(n_sc)
-    deputy[deputies] = 1.0
-    mass = np.array([s.mass_kg for s in ctx.scenario.spacecraft], dtype=float)
-    a_cw, b_cw = cw_matrices(n)
-    phi, gam = discretize(a_cw, b_cw, period)
-    gain = np.zeros((n_sc, 3, 6))
+    return replan
+
+
+def _keeping_gains(table, ctx, deputies, mass, cw):
+    """Each deputy's discrete LQR gain on its CW error (Bryson weights), shape (n, 3, 6), zero
+    for the others, and the largest spectral radius of the sampled loops. ``cw``: the CW
+    matrices, continuous and sampled (a, b, Φ, Γ)."""
+    import numpy as np
+
+    from coopsat.design.lti import bryson_weights
+    from coopsat.design.riccati import lqr
+
+    a_cw, b_cw, phi, gam = cw
+    gain = np.zeros((ctx.n, 3, 6))
     radius = 0.0
     for i in deputies:
         # Bryson on the force F = m f: the specific force's scale is F_scale / m.
         scales = [table.position_scale_m] * 3 + [table.velocity_scale_m_s] * 3
         q, r = bryson_weights(scales, [table.force_scale_n / mass[i]] * 3)
         try:
-            gain[i] = lqr(a_cw, b_cw, q, r, discrete_dt_s=period).K
+            gain[i] = lqr(a_cw, b_cw, q, r, discrete_dt_s=ctx.period_s).K
         except ValueError as err:
             raise DesignError(f"controller: keeping gain of {ctx.names[i]}: {err}") from None
         radius = max(radius, float(np.abs(np.linalg.eigvals(phi - gam @ gain[i])).max()))
+    return gain, radius
+
+
+def _source_weights(table, ctx, chief, deputies, deputy):
+    """The weight with which each deputy takes each neighbour's candidate target (eq. 10): the
+    chief's and the deputies' weights on the links of the first graph, none for the chief."""
+    import numpy as np
+
     adjacency = ctx.adjacencies[0]
     weight = np.where(adjacency > 0, table.deputy_weight, 0.0)
     weight[:, chief] = np.where(adjacency[:, chief] > 0, table.chief_weight, 0.0)
@@ -157,19 +204,7 @@ def design(table, ctx):
         lonely = [ctx.names[i] for i in deputies if weight[i].sum() == 0]
         if lonely:
             raise DesignError(f"network: deputy {lonely[0]} hears no neighbour in [network] to estimate its target from (targets = \"ring\")")
-    part = {
-        "rho_m": table.radius_m, "n_rad_s": n, "phase_rad": phase, "deputy": deputy,
-        "chief": np.int32(chief), "source_weight": weight, "gain": gain, "mass_kg": mass,
-        "psi0_rad": math.radians(table.psi_deg), "psi_bound_rad": math.radians(table.psi_bound_deg),
-        "horizon_s": table.plan_horizon_s,
-    }
-    static = {
-        "period_s": float(period), "targets": table.targets, "compensation": table.delay_compensation, "replan_every": replan,
-        "particles": table.pso_particles, "iterations": table.pso_iterations,
-    }
-    with np.errstate(divide="ignore"):
-        tc = -period / np.log(np.abs(np.linalg.eigvals(phi - gam @ gain[deputies[0]])))
-    return {"part": part, "static": static, "a_m": a, "e": e, "n_rad_s": n, "closed_loop_radius": radius, "time_constants_s": np.sort(tc)}
+    return weight
 
 
 def _build(table, ctx):

@@ -148,12 +148,10 @@ def _design(table, ctx, force_scale_n=None):
         Uncontrollable or unobservable pair, an LMI not certified (the message names it).
     """
     import numpy as np
-    from scipy.linalg import block_diag
 
-    from coopsat.design.formation_model import common_mode_projector, formation_model, observability_decomposition, reference_state
-    from coopsat.design.formation_synthesis import centroid_gain, lmi_state_feedback
-    from coopsat.design.lti import FormationDesignError, bryson_weights, nonzero_setpoint_feedforward
-    from coopsat.design.riccati import discretize, lqr
+    from coopsat.design.formation_model import formation_model, observability_decomposition, reference_state
+    from coopsat.design.lti import FormationDesignError, bryson_weights
+    from coopsat.design.riccati import discretize
 
     p0, target, mass, axes = _geometry(table, ctx)
     n, d = p0.shape
@@ -169,37 +167,92 @@ def _design(table, ctx, force_scale_n=None):
         )
         x_ref = reference_state(dec, target)
         x_start = reference_state(dec, p0)
-        if table.design == "gain":
-            gain = None
-            k = _given_gain(table, n * d, 2 * ny)
-            u_ff = -k @ x_ref
-        elif table.design == "lmi":
-            e0 = float(np.linalg.norm(x_start - x_ref)) or 1.0
-            gain = lmi_state_feedback(dec.a_o, dec.b_o, q, r, np.eye(2 * ny) / e0**2, objective=table.lmi_objective)
-            k = gain.gain
-            u_ff = -k @ x_ref
-        else:
-            try:
-                k_lqr = lqr(dec.a_o, dec.b_o, q, r).K
-            except ValueError as err:
-                raise FormationDesignError(f"state feedback (LQR): {err}") from None
-            gain = k_lqr
-            k = -k_lqr
-            u_ff = nonzero_setpoint_feedforward(dec.a_o, dec.b_o, c_y, k_lqr) @ (c_y @ x_ref)
+        gain, k, u_ff = _state_feedback(table, dec, q, r, c_y, x_ref, x_start, (n, d))
         observer = _observer(dec, c_y, table.observer_bandwidth_rad_s)
-        centroid = None
-        if table.objective == "centroid-holding":
-            q_c, r_c = bryson_weights(np.r_[np.full(d, table.position_scale_m), np.full(d, table.velocity_scale_m_s)], np.full(d, scale))
-            centroid = centroid_gain(dec, q_c, r_c)
-            proj = common_mode_projector(n, d)
-            c_u = np.hstack([proj @ k, np.kron(np.ones((n, 1)), np.eye(d)) @ centroid.gain])
-            u_ff = proj @ u_ff
-        else:
-            c_u = k
+        centroid, c_u, u_ff = _centroid_law(table, dec, k, u_ff, scale, (n, d))
     except FormationDesignError as err:
         raise DesignError(f"controller: {err}") from None
-    # Estimator: the observer of eq. (12) and, for centroid holding, the centroid's open-loop
-    # displacement driven by the force expected to act (eq. 14 with x̂_ō from the start).
+    part = _software(table, ctx, (dec, c_y, observer, centroid), {"c_u": c_u, "u_ff": u_ff}, (n, d, mass, hub))
+    a_d, b_d = discretize(dec.a_o, dec.b_o, ctx.period_s)
+    radius = float(np.max(np.abs(np.linalg.eigvals(closed_loop_matrix(a_d, b_d, c_y, part, np)))))
+    return {
+        "part": part, "k": k, "plant_d": (a_d, b_d, c_y), "gain": gain, "observer": observer, "centroid": centroid, "x_ref": x_ref, "p0": p0,
+        "target": target, "decomposition": dec, "closed_loop_radius": radius, "axes": axes,
+    }
+
+
+def _state_feedback(table, dec, q, r, c_y, x_ref, x_start, shape):
+    """The state feedback ``u = k x + u_ff`` of the formation's relative state, by the table's
+    ``design``: the given gain, the min-γ LMI (eq. 11) or Riccati LQR with the non-zero set point
+    (eq. 17). ``shape``: (spacecraft, axes).
+
+    Returns
+    -------
+    gain : the design's result (None for a given gain), k : ndarray, u_ff : ndarray
+    """
+    import numpy as np
+
+    from coopsat.design.formation_synthesis import lmi_state_feedback
+    from coopsat.design.lti import FormationDesignError, nonzero_setpoint_feedforward
+    from coopsat.design.riccati import lqr
+
+    n, d = shape
+    ny = (n - 1) * d
+    if table.design == "gain":
+        k = _given_gain(table, n * d, 2 * ny)
+        return None, k, -k @ x_ref
+    if table.design == "lmi":
+        e0 = float(np.linalg.norm(x_start - x_ref)) or 1.0
+        gain = lmi_state_feedback(dec.a_o, dec.b_o, q, r, np.eye(2 * ny) / e0**2, objective=table.lmi_objective)
+        return gain, gain.gain, -gain.gain @ x_ref
+    try:
+        k_lqr = lqr(dec.a_o, dec.b_o, q, r).K
+    except ValueError as err:
+        raise FormationDesignError(f"state feedback (LQR): {err}") from None
+    return k_lqr, -k_lqr, nonzero_setpoint_feedforward(dec.a_o, dec.b_o, c_y, k_lqr) @ (c_y @ x_ref)
+
+
+def _centroid_law(table, dec, k, u_ff, scale, shape):
+    """The law's output map and feedforward: for centroid holding, the common mode removed from
+    ``k`` and ``u_ff`` and the centroid's own gain added (eq. 15). ``shape``: (spacecraft, axes).
+
+    Returns
+    -------
+    centroid : the centroid gain's design (None without centroid holding), c_u : ndarray, u_ff : ndarray
+    """
+    import numpy as np
+
+    from coopsat.design.formation_model import common_mode_projector
+    from coopsat.design.formation_synthesis import centroid_gain
+    from coopsat.design.lti import bryson_weights
+
+    if table.objective != "centroid-holding":
+        return None, k, u_ff
+    n, d = shape
+    q_c, r_c = bryson_weights(np.r_[np.full(d, table.position_scale_m), np.full(d, table.velocity_scale_m_s)], np.full(d, scale))
+    centroid = centroid_gain(dec, q_c, r_c)
+    proj = common_mode_projector(n, d)
+    c_u = np.hstack([proj @ k, np.kron(np.ones((n, 1)), np.eye(d)) @ centroid.gain])
+    return centroid, c_u, proj @ u_ff
+
+
+def _software(table, ctx, estimator, law, formation):
+    """The flight software's matrices (:class:`~coopsat.control.formation.LinearFormationSoftware`
+    keyword arguments): the sampled estimator (``estimator``: the decomposition, the outputs
+    ``c_y``, the observer and the centroid gain) and the law ``law`` (``c_u``, ``u_ff``);
+    ``formation``: spacecraft, axes, mass and hub.
+
+    The estimator is the observer of eq. (12) and, for centroid holding, the centroid's
+    open-loop displacement driven by the force expected to act (eq. 14 with x̂_ō from the start).
+    """
+    import numpy as np
+    from scipy.linalg import block_diag
+
+    from coopsat.design.riccati import discretize
+
+    dec, c_y, observer, centroid = estimator
+    n, d, mass, hub = formation
+    ny = (n - 1) * d
     ell = observer.gain
     f, g_y, g_u = dec.a_o + ell @ c_y, -ell, dec.b_o
     if centroid is not None:
@@ -209,24 +262,18 @@ def _design(table, ctx, force_scale_n=None):
     phi, gam = discretize(f, np.hstack([g_y, g_u]), ctx.period_s)
     nz = f.shape[0]
     f_min, f_max = _thruster_model(ctx)
-    part = {
+    return {
         "phi": phi,
         "gamma_y": gam[:, :ny],
         "gamma_u": gam[:, ny:],
-        "c_u": c_u,
-        "u_ff": u_ff,
+        "c_u": law["c_u"],
+        "u_ff": law["u_ff"],
         "c_y": np.hstack([c_y, np.zeros((ny, nz - 2 * ny))]),
         "y_map": np.kron(dec.basis, np.eye(d)),
         "z0_map": np.vstack([np.eye(ny), np.zeros((nz - ny, ny))]),
         "force_min_n": f_min,
         "force_max_n": f_max,
         "source": np.arange(n) if _architecture(table) == "decentralized" else np.full(n, hub),
-    }
-    a_d, b_d = discretize(dec.a_o, dec.b_o, ctx.period_s)
-    radius = float(np.max(np.abs(np.linalg.eigvals(closed_loop_matrix(a_d, b_d, c_y, part, np)))))
-    return {
-        "part": part, "k": k, "plant_d": (a_d, b_d, c_y), "gain": gain, "observer": observer, "centroid": centroid, "x_ref": x_ref, "p0": p0,
-        "target": target, "decomposition": dec, "closed_loop_radius": radius, "axes": axes,
     }
 
 

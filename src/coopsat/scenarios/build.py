@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from coopsat.astro.kepler import elements_to_rv
-from coopsat.network import topology
+from coopsat.network.graphs import graph_adjacency
+from coopsat.network.topology import GraphError
 from coopsat.plugins import BuildContext, DesignCheck, DesignError, plugin_for
 from coopsat.scenarios.load import ScenarioError
 from coopsat.scenarios.schema import Scenario, whole_ratio
@@ -81,7 +82,8 @@ def inertia_matrix(inertia):
 
 
 def build_adjacency(network, names, where="network"):
-    """Adjacency ``A[i, j]`` (i hears j) of one graph of the scenario, shape (n, n).
+    """Adjacency ``A[i, j]`` (i hears j) of one graph of the scenario, shape (n, n): the builder
+    of its kind (:data:`coopsat.network.graphs.GRAPH_KINDS`).
 
     Parameters
     ----------
@@ -89,37 +91,16 @@ def build_adjacency(network, names, where="network"):
     names : sequence of str
     where : str
         The graph's place in the scenario, for error messages.
+
+    Raises
+    ------
+    ScenarioError
+        A graph that names an unknown spacecraft or is malformed (the graph's own message).
     """
-    n = len(names)
-    index = {name: k for k, name in enumerate(names)}
-    kind = network.kind
-    if kind == "none":
-        return np.zeros((n, n))
-    if kind == "edges":
-        triples = []
-        for k, (src, dst, w) in enumerate(network.edges):
-            for end in (src, dst):
-                if end not in index:
-                    raise ScenarioError(f"{where}.edges[{k}]: unknown spacecraft '{end}' (known: {', '.join(names)})")
-            triples.append((index[src], index[dst], w))
-        try:
-            return topology.adjacency_from_edges(n, triples, network.directed)
-        except topology.GraphError as err:
-            raise ScenarioError(str(err).replace("network", where, 1)) from None
-    if kind == "adjacency":
-        try:
-            a = topology.validate_adjacency(network.adjacency)
-        except topology.GraphError as err:
-            raise ScenarioError(str(err).replace("network", where, 1)) from None
-        if a.shape[0] != n:
-            raise ScenarioError(f"{where}.adjacency: is {a.shape[0]}×{a.shape[0]} but there are {n} spacecraft")
-        return a
-    if kind == "star":
-        hub = network.hub or names[0]
-        if hub not in index:
-            raise ScenarioError(f"{where}.hub: unknown spacecraft '{hub}' (known: {', '.join(names)})")
-        return network.weight * topology.star_adjacency(n, network.directed, hub=index[hub])
-    return network.weight * topology.NAMED_GRAPHS[kind](n, directed=network.directed)
+    try:
+        return graph_adjacency(network, names, where)
+    except GraphError as err:
+        raise ScenarioError(str(err)) from None
 
 
 def _absolute_state(sc, orbit):
@@ -221,29 +202,52 @@ def build(scenario):
     from coopsat.core import runtime
 
     runtime.enable()  # float64 before any design-time JAX array (coopsat.core.runtime: the documented change)
-    import jax
+    ctx, switch_times, rv = _context(scenario)
+    parts, used, checks = _build_parts(scenario, ctx)
+    system = _system(scenario, ctx, rv, parts)
+    notes = [c.note for c in checks.values() if not c.ok]
+    for note in notes:
+        warnings.warn(note, DesignWarning, stacklevel=2)
+    return Built(
+        scenario=scenario,
+        system=system,
+        names=ctx.names,
+        adjacency=ctx.adjacencies[0],
+        adjacencies=ctx.adjacencies,
+        switch_times_s=switch_times,
+        n_records=whole_ratio(scenario.sim.t_final_s, scenario.record_interval_s),
+        record_interval_s=scenario.record_interval_s,
+        checks=checks,
+        plugins=used,
+        context=ctx,
+        warnings=notes,
+    )
 
-    from coopsat.dynamics.plant import PlantParams, PlantState
-    from coopsat.sim.system import Structure, System, as_arrays
 
+def _context(scenario):
+    """What every plug-in's builder sees (:class:`~coopsat.plugins.BuildContext`): names,
+    inertias, periods, the graphs and when they switch, the initial ECI states; the switch
+    times, s (the first graph's at 0); and every spacecraft's ECI (r, v)."""
     names = [sc.name for sc in scenario.spacecraft]
-    n = len(names)
     inertia = np.stack([inertia_matrix(sc.inertia_kgm2) for sc in scenario.spacecraft])
-    q0 = np.array([sc.q_bi for sc in scenario.spacecraft], dtype=float)
-    q0 /= np.linalg.norm(q0, axis=1, keepdims=True)
     rv = _translational_states(scenario.spacecraft, scenario.orbit)
     places = ["network"] + [f"network.switches[{k}]" for k in range(len(scenario.network.switches))]
     graphs = [scenario.network, *scenario.network.switches]
     adjacencies = [build_adjacency(g, names, where) for g, where in zip(graphs, places)]
     switch_times = [0.0] + [sw.t_s for sw in scenario.network.switches]
-    period = scenario.control_period_s
     dt = scenario.sim.dt_s
     ctx = BuildContext(
-        scenario=scenario, names=names, inertia_kgm2=inertia, dt_s=dt, period_s=period, adjacencies=adjacencies,
-        graph_places=places, switch_ticks=np.array([round(t / dt) for t in switch_times], dtype=np.int64),
+        scenario=scenario, names=names, inertia_kgm2=inertia, dt_s=dt, period_s=scenario.control_period_s,
+        adjacencies=adjacencies, graph_places=places,
+        switch_ticks=np.array([round(t / dt) for t in switch_times], dtype=np.int64),
         r_eci_m=np.array([r for r, _ in rv], dtype=float), v_eci_m_s=np.array([v for _, v in rv], dtype=float),
     )
+    return ctx, switch_times, rv
 
+
+def _build_parts(scenario, ctx):
+    """Every plug-in's in-loop part, by role, in the order of :func:`scenario_tables`, the
+    plug-ins themselves, and their design-time checks by name."""
     parts = {"controller": [], "network": [], "sensor": [], "actuator": [], "disturbance": []}
     used, checks = [], {}
     for role, place, table in scenario_tables(scenario):
@@ -259,16 +263,28 @@ def build(scenario):
             raise ScenarioError(str(err)) from None
         used.append(plugin)
     _check_sensed_quantities(scenario, parts["sensor"], parts["actuator"])
+    return parts, used, checks
 
-    orbit = scenario.orbit
+
+def _system(scenario, ctx, rv, parts):
+    """The compiled loop's :class:`~coopsat.sim.system.System`: structure, initial state (``rv``:
+    ECI (r, v) of every spacecraft), plant parameters and the plug-ins' parts."""
+    import jax
+
+    from coopsat.dynamics.plant import PlantState
+    from coopsat.sim.system import Structure, System, as_arrays
+
+    orbit, period, dt = scenario.orbit, scenario.control_period_s, scenario.sim.dt_s
     structure = Structure(
-        n_spacecraft=n,
+        n_spacecraft=len(ctx.names),
         gravity="none" if orbit is None else orbit.gravity,
         attitude=scenario.sim.attitude,
         ticks_per_period=whole_ratio(period, dt),
         periods_per_record=whole_ratio(scenario.record_interval_s, period),
         substeps=scenario.sim.substeps,
     )
+    q0 = np.array([sc.q_bi for sc in scenario.spacecraft], dtype=float)
+    q0 /= np.linalg.norm(q0, axis=1, keepdims=True)
     x0 = PlantState(
         q_bi=q0,
         omega_b=np.array([sc.omega_b_rad_s for sc in scenario.spacecraft], dtype=float),
@@ -277,12 +293,28 @@ def build(scenario):
         v_eci=np.array([v for _, v in rv], dtype=float),
         angle_rad=np.array([sc.angle_rad for sc in scenario.spacecraft], dtype=float),
     )
+    return System(
+        structure,
+        *as_arrays((dt, jax.random.PRNGKey(scenario.seed), x0, _plant(scenario, ctx.inertia_kgm2))),
+        controller=parts["controller"][0],
+        network=parts["network"][0],
+        sensors=tuple(parts["sensor"]),
+        actuators=tuple(parts["actuator"]),
+        disturbances=tuple(parts["disturbance"]),
+    )
+
+
+def _plant(scenario, inertia):
+    """The plant's parameters: inertias (diagonal when every spacecraft's are), gravity, masses."""
+    from coopsat.dynamics.plant import PlantParams
+
+    orbit = scenario.orbit
     if all(np.count_nonzero(m - np.diag(np.diag(m))) == 0 for m in inertia):
         # Principal axes = body axes for every spacecraft: the loop takes the cheaper diagonal path.
         inertia_in, inertia_inv = np.diagonal(inertia, axis1=1, axis2=2), 1.0 / np.diagonal(inertia, axis1=1, axis2=2)
     else:
         inertia_in, inertia_inv = inertia, np.linalg.inv(inertia)
-    plant = PlantParams(
+    return PlantParams(
         inertia_kgm2=inertia_in,
         inertia_inv=inertia_inv,
         mu_m3_s2=0.0 if orbit is None else orbit.mu_m3_s2,
@@ -290,30 +322,4 @@ def build(scenario):
         r_body_m=1.0 if orbit is None else orbit.r_body_m,
         mass_kg=np.array([np.nan if sc.mass_kg is None else sc.mass_kg for sc in scenario.spacecraft]),
         chief=0,
-    )
-    system = System(
-        structure,
-        *as_arrays((dt, jax.random.PRNGKey(scenario.seed), x0, plant)),
-        controller=parts["controller"][0],
-        network=parts["network"][0],
-        sensors=tuple(parts["sensor"]),
-        actuators=tuple(parts["actuator"]),
-        disturbances=tuple(parts["disturbance"]),
-    )
-    notes = [c.note for c in checks.values() if not c.ok]
-    for note in notes:
-        warnings.warn(note, DesignWarning, stacklevel=2)
-    return Built(
-        scenario=scenario,
-        system=system,
-        names=names,
-        adjacency=adjacencies[0],
-        adjacencies=adjacencies,
-        switch_times_s=switch_times,
-        n_records=whole_ratio(scenario.sim.t_final_s, scenario.record_interval_s),
-        record_interval_s=scenario.record_interval_s,
-        checks=checks,
-        plugins=used,
-        context=ctx,
-        warnings=notes,
     )

@@ -15,6 +15,7 @@ import numpy as np
 from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from coopsat.astro.constants import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
+from coopsat.network.graphs import GRAPH_KINDS
 from coopsat.plugins import plugins
 from coopsat.plugins.tables import (
     MAX_DISTANCE_M,
@@ -204,7 +205,7 @@ class Orbit(Table):
 class Graph(Table):
     """A communication graph: who hears whom (the fields shared by ``[network]`` and its switches)."""
 
-    kind: Literal["none", "ring", "chain", "star", "complete", "edges", "adjacency"] = "none"
+    kind: Literal[tuple(GRAPH_KINDS)] = "none"  # coopsat.network.graphs: one builder per kind
     directed: bool = Field(False, description="Named graphs and edge lists: one-way links (i hears j only).")
     weight: float = Field(1.0, gt=0, le=MAX_GAIN, description="Weight of every link of a named graph.")
     hub: str | None = Field(None, description="Star: the hub spacecraft (default the first).")

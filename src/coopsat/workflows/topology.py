@@ -7,16 +7,13 @@ from pathlib import Path
 import numpy as np
 
 from coopsat.network import topology
+from coopsat.network.graphs import NAMED_GRAPH_NAMES, named_graph
 from coopsat.scenarios.load import ScenarioError, bundled_names, load_scenario
-
-NAMED = {"star": topology.star_adjacency, "ring": topology.ring_adjacency, "chain": topology.chain_adjacency,
-         "mesh": lambda n: topology.complete_adjacency(n), "complete": lambda n: topology.complete_adjacency(n)}
-"""Graphs named on the command line, of a given number of nodes ("mesh" is "complete")."""
 
 
 def resolve_graphs(refs, nodes):
     """name -> adjacency ``(n, n)`` for each reference: a named graph of ``nodes`` nodes
-    (:data:`NAMED`), a scenario's network (its first graph), or an adjacency file
+    (:func:`coopsat.network.graphs.named_graph`), a scenario's network (its first graph), or an adjacency file
     (whitespace- or comma-separated).
 
     Raises
@@ -28,8 +25,8 @@ def resolve_graphs(refs, nodes):
 
     graphs = {}
     for ref in refs:
-        if ref in NAMED:
-            graphs[ref] = NAMED[ref](nodes)
+        if ref in NAMED_GRAPH_NAMES:
+            graphs[ref] = named_graph(ref, nodes)
         elif ref in bundled_names() or ref.endswith(".toml"):
             scenario = load_scenario(ref)
             graphs[scenario.name] = build_adjacency(scenario.network, [sc.name for sc in scenario.spacecraft])
@@ -40,7 +37,7 @@ def resolve_graphs(refs, nodes):
             except ValueError as err:
                 raise ScenarioError(f"{ref}: not an adjacency matrix ({err})") from None
         else:
-            raise ScenarioError(f"topology: '{ref}' is not a named graph ({', '.join(NAMED)}), a scenario, or an adjacency file")
+            raise ScenarioError(f"topology: '{ref}' is not a named graph ({', '.join(NAMED_GRAPH_NAMES)}), a scenario, or an adjacency file")
     return graphs
 
 

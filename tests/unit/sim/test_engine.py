@@ -115,13 +115,13 @@ def test_batch_inner_integration_equals_separate_runs(name):
 
 def test_a_batch_run_group_after_group_with_padding_equals_separate_runs(monkeypatch):
     """Five runs in groups of two (the last padded with a copy) give each run's own result."""
-    from coopsat.sim import engine
+    from coopsat.sim import batching
 
     runs = [_built("consensus-sync-b-stable", "sim.t_final_s=1.0", f"spacecraft.0.omega_b_rad_s=[0.0, 0.0, {w}]")
             for w in (0.01, 0.02, 0.03, 0.04, 0.05)]
     n = runs[0].system.structure.n_spacecraft
-    monkeypatch.setattr(engine, "GROUP_SPACECRAFT", 2 * n)
-    groups, size = engine._batch_groups(5, n)
+    monkeypatch.setattr(batching, "GROUP_SPACECRAFT", 2 * n)
+    groups, size = batching._batch_groups(5, n)
     assert groups >= 3 and groups * size > 5  # (4, 2) with two CPU devices
     out = simulate(stack_systems([b.system for b in runs]), runs[0].n_records, runs[0].record_interval_s, batched=True)
     for k, b in enumerate(runs):

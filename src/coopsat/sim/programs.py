@@ -1,0 +1,156 @@
+"""The compiled programs of a run: its initial carry, a chunk of record intervals (one run, or a
+batch group after group and device by device) and its final sample.
+
+A record is taken every ``periods_per_record`` control periods: the state and the parts'
+records at the record instant, each actuator's mean output over the interval that starts
+there, and the cumulative counters. A chunk is one ``lax.scan`` over record intervals; record
+intervals past the run's end pass the carry through, so runs of similar length share a
+compiled chunk. There is no Python loop over ticks, spacecraft or edges.
+"""
+
+from dataclasses import replace
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from coopsat.geometry.quaternion import quat_normalize
+from coopsat.sim.flight_software import as_flight_software
+from coopsat.sim.layout import AXIS, _cm, _engine_view, _from_inner, _inner_plant, _to_inner
+from coopsat.sim.period import _account, _command, _period, _sense, _truth
+
+
+def _means(system, acc_before, acc_after, interval_s):
+    """Each actuator's mean output over an interval, from its counter (e.g. mean torque from
+    the signed angular impulse)."""
+    return {
+        a.mean_output[0]: (acc_after[a.mean_output[1]] - acc_before[a.mean_output[1]]) / interval_s
+        for a in system.actuators
+    }
+
+
+def _block(system, carry, batched):
+    """One record interval: the sample at its start, then ``periods_per_record`` periods.
+
+    The sample holds the state and the controller's record at its instant and the mean
+    output of each actuator over the whole interval that follows (from the counters
+    accumulated over it), so no period is left out of the record.
+    """
+    x, _, acc, _ = carry
+    carry, (_, record) = _period(system, carry, batched)
+    rest = system.structure.periods_per_record - 1
+    if rest > 0:
+        carry = jax.lax.fori_loop(0, rest, lambda _, c: _period(system, c, batched)[0], carry)
+    interval = system.period_s * system.structure.periods_per_record
+    truth = _truth(system, x)
+    if batched:
+        truth = jax.tree_util.tree_map(_from_inner, truth)
+    return carry, {**truth, **acc, **record, **_means(system, acc, carry[2], interval)}
+
+
+def _scan_records(system, carry, first_record, n_records, chunk, batched):
+    """``chunk`` record intervals; those at or past ``n_records`` pass the carry through."""
+
+    def body(c, k):
+        template = jax.eval_shape(lambda cc: _block(system, cc, batched)[1], c)
+        return jax.lax.cond(
+            first_record + k < n_records,
+            lambda cc: _block(system, cc, batched),
+            lambda cc: (cc, jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), template)),
+            c,
+        )
+
+    return jax.lax.scan(body, carry, jnp.arange(chunk))
+
+
+@partial(jax.jit, static_argnames=("chunk",))
+def _run_chunk(system, carry, first_record, n_records, chunk):
+    """``chunk`` record intervals of one run."""
+    return _scan_records(_engine_view(system), carry, first_record, n_records, chunk, False)
+
+
+def _run_group(system, carry, first_record, n_records, chunk):
+    """``chunk`` record intervals of one group of runs (batch-first in and out)."""
+    system = replace(system, plant=_inner_plant(system.plant))
+    x, st, acc, tick = carry
+    carry = (jax.tree_util.tree_map(_to_inner, x), st, acc, tick)
+    (x, st, acc, tick), out = _scan_records(system, carry, first_record, n_records, chunk, True)
+    return (jax.tree_util.tree_map(_from_inner, x), st, acc, tick), jax.tree_util.tree_map(lambda a: jnp.moveaxis(a, 1, 0), out)
+
+
+@partial(jax.jit, static_argnames=("chunk", "groups", "devices"))
+def _run_chunk_batched(system, carry, first_record, n_records, chunk, groups=1, devices=1):
+    """``chunk`` record intervals of a batch (batch-first System, shared ``dt_s`` and tick).
+
+    Takes and returns the carry batch-first, as the vmapped per-run functions
+    (:func:`_initial_carry`, :func:`_final_sample`) do; samples ``(B, chunk, …)``. With
+    ``groups`` > 1 (B a multiple of it), the runs are integrated group after group
+    (``lax.map``), each group for the whole chunk; with ``devices`` > 1 (``groups`` a multiple
+    of it) the groups are shared among the first ``devices`` devices (``jax.shard_map``).
+    """
+    if groups == 1:
+        return _run_group(system, carry, first_record, n_records, chunk)
+    dt_s, tick = system.dt_s, carry[3]
+    split = lambda a: a.reshape(groups, a.shape[0] // groups, *a.shape[1:])  # noqa: E731
+    merge = lambda a: a.reshape(a.shape[0] * a.shape[1], *a.shape[2:])  # noqa: E731
+    per_group = jax.tree_util.tree_map(split, (replace(system, dt_s=None), carry[:3]))
+
+    def one(group):
+        g_system, g_carry = group
+        return _run_group(replace(g_system, dt_s=dt_s), (*g_carry, tick), first_record, n_records, chunk)
+
+    if devices > 1:
+        # One share of the groups per device (on the CPU: per core, coopsat.core.runtime), each device
+        # running its groups in turn.
+        from jax.sharding import Mesh, PartitionSpec
+
+        mesh = Mesh(np.array(jax.devices()[:devices]), ("device",))
+        spec = PartitionSpec("device")
+        (x, st, acc, ticks), out = jax.shard_map(
+            lambda pg: jax.lax.map(one, pg), mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False
+        )(per_group)
+    else:
+        (x, st, acc, ticks), out = jax.lax.map(one, per_group)
+    return jax.tree_util.tree_map(merge, (x, st, acc)) + (ticks[0],), jax.tree_util.tree_map(merge, out)
+
+
+@jax.jit
+def _final_sample(system, carry):
+    """The sample at the end of the run; actuator means are those of the period that would follow."""
+    system = _engine_view(system)
+    x, st, acc, tick = carry
+    pulses, _, record = _command(system, x, st, tick)
+    inc = _account(system, pulses)
+    means = {a.mean_output[0]: inc[a.mean_output[1]] / system.period_s for a in system.actuators}
+    return {**_truth(system, x), **acc, **record, **means}
+
+
+def _initial_carry(system):
+    """State of the plant and of every part at t = 0, and zeroed counters.
+
+    The network's history before t = 0 is the first outbox (a constant initial function, as
+    is usual for delay equations).
+    """
+    system_cm = _engine_view(system)
+    x0 = jax.tree_util.tree_map(_cm, system.x0)
+    x0 = x0._replace(q_bi=quat_normalize(x0.q_bi, AXIS))
+    n = system.structure.n_spacecraft
+    truth = _truth(system_cm, x0)
+    st = {
+        "controller": system.controller.init(n),
+        "sensors": tuple(s.init(s.truth(truth, x0, 0.0), n) for s in system.sensors),
+        "held": tuple(s.truth(truth, x0, 0.0) for s in system.sensors),
+        "actuators": tuple(a.init(n) for a in system.actuators),
+        "disturbances": tuple(d.init(n) for d in system.disturbances),
+        "network": (),
+    }
+    y0, _ = _sense(system_cm, x0, st, 0, jax.random.fold_in(system.key, 0), 0.0)
+    st["network"] = system.network.init(as_flight_software(system.controller, n).outbox(y0, st["controller"]))
+    zeros = jax.eval_shape(
+        lambda: _account(system_cm, tuple(a.plan(jnp.zeros_like(x0.omega_b), x0, s, system_cm.period_s, system.key, 0.0)[0]
+                                          for a, s in zip(system_cm.actuators, st["actuators"])))
+    )
+    acc = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), zeros)
+    return (x0, st, acc, jnp.zeros((), jnp.int64))
+

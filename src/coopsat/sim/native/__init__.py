@@ -1,10 +1,10 @@
 """Native CPU kernels for the parts of a tick XLA:CPU cannot make one pass.
 
 XLA:CPU emits every fusion as its own loop over memory and has no multi-output loop fusion
-(its experimental pass, ``--xla_backend_extra_options=xla_cpu_use_multi_output_fusion``,
-made the consensus loop 5–8× slower when tried), so an RK4 tick of N spacecraft is about nine
-passes over the state. A native kernel does the whole tick of a plant in one pass, with every
-stage in registers (docs/architecture.md, "Engine speed"). Each kernel is an XLA FFI custom
+(its experimental pass made the consensus loop slower: docs/engine-notes.md, "Native
+kernels"), so an RK4 tick of N spacecraft is about nine passes over the state. A native
+kernel does the whole tick of a plant in one pass, with every stage in registers
+(docs/architecture.md, "Engine speed"). Each kernel is an XLA FFI custom
 call on the CPU (numba-compiled, :mod:`coopsat.sim.native.ffi`) and the engine's own XLA code
 everywhere else:
 
@@ -15,10 +15,10 @@ everywhere else:
 :data:`KERNELS` lists the plants' ticks, :data:`LAW_KERNELS` the control laws';
 :func:`smooth_tick` and :func:`control_step` pick the first whose ``applies`` holds for a
 run's static structure, and the engine falls back to XLA when none does. The plant kernel
-applies whatever the number of spacecraft (measured against XLA's tick: 0.7× at N = 1, as
-fast at N = 5, faster from N = 20): the plant of a batch is integrated as one array of every
-run's spacecraft, so a size threshold there would send a run through different code alone
-and in a batch. The law kernel applies from :data:`LAW_MIN_SPACECRAFT` spacecraft per run,
+applies whatever the number of spacecraft (it is about as fast as XLA's tick for a handful
+and faster beyond): the plant of a batch is integrated as one array of every run's
+spacecraft, so a size threshold there would send a run through different code alone and in
+a batch. The law kernel applies from :data:`LAW_MIN_SPACECRAFT` spacecraft per run,
 a test that is the same alone and in a batch. So on the CPU a run takes the same path alone,
 in any batch and on any number of devices, and its result does not depend on them.
 """
@@ -94,11 +94,11 @@ class LawKernel(NamedTuple):
 
 
 LAW_MIN_SPACECRAFT = 128
-"""Smallest formation whose law runs natively. The law kernel's call costs about 0.15 µs more
-than XLA's fusion of the law, which it beats from about 100 spacecraft (measured, ring,
-consensus N = 5: 7.9 vs 10.2 M spacecraft-steps/s; N = 1000: 52.8 vs 46.4). The test is on a
-run's own number of spacecraft, which is the same alone and in a batch (the parts run per run
-under ``vmap``), so a run's result still does not depend on its batch."""
+"""Smallest formation whose law runs natively: the law kernel's call costs more than XLA's
+fusion of the law, which it beats from about 100 spacecraft (docs/engine-notes.md, "Native
+kernels"). The test is on a run's own number of spacecraft, which is the same alone and in
+a batch (the parts run per run under ``vmap``), so a run's result still does not depend on
+its batch."""
 
 
 def _consensus_applies(controller, y, inbox):

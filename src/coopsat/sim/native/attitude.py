@@ -1,6 +1,7 @@
 """The rigid-body kernels (:mod:`coopsat.sim.native.rigid_body`) as JAX functions: the smooth
 tick and the piecewise tick of a pulsed actuator."""
 
+import threading
 from functools import partial
 
 import jax
@@ -10,16 +11,20 @@ import numpy as np
 from coopsat.sim.native import ffi, with_xla_derivatives
 
 _registered = False
+_register_lock = threading.Lock()
 
 
 def _register():
+    """Register the kernels' FFI targets with XLA, once per process (also when threads trace
+    the engine at the same time)."""
     global _registered
-    if not _registered:
-        from coopsat.sim.native.rigid_body import SEGMENTS_TARGET, TARGET, handler, segments_handler
+    with _register_lock:
+        if not _registered:
+            from coopsat.sim.native.rigid_body import SEGMENTS_TARGET, TARGET, handler, segments_handler
 
-        jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(handler.ctypes), platform="cpu")
-        jax.ffi.register_ffi_target(SEGMENTS_TARGET, jax.ffi.pycapsule(segments_handler.ctypes), platform="cpu")
-        _registered = True
+            jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(handler.ctypes), platform="cpu")
+            jax.ffi.register_ffi_target(SEGMENTS_TARGET, jax.ffi.pycapsule(segments_handler.ctypes), platform="cpu")
+            _registered = True
 
 
 def _spec(n_seg=None):
@@ -55,10 +60,10 @@ def _native(system, x, torque_b, t_s):
     results = (jax.ShapeDtypeStruct((4, m), x.q_bi.dtype), jax.ShapeDtypeStruct((3, m), x.omega_b.dtype))
     call = partial(
         ffi.call, TARGET, _spec(), results, vmap_method="broadcast_all",
-        # One run, (k, n): the new state overwrites the old, and XLA keeps no copy of it a tick
-        # (consensus N = 5: 11.1 -> 13.1 M spacecraft-steps/s). A batch-inner state (k, B, n)
-        # reaches the call through a reshape, and aliasing that made XLA copy the state both
-        # into and out of the call (a batch of 1000 runs of N = 5: 2x slower): not aliased.
+        # One run, (k, n): the new state overwrites the old, and XLA keeps no copy of it a tick.
+        # A batch-inner state (k, B, n) reaches the call through a reshape, and aliasing that
+        # makes XLA copy the state both into and out of the call: not aliased
+        # (docs/engine-notes.md, "Native kernels").
         input_output_aliases={0: 0, 1: 1} if x.q_bi.ndim == 2 else {},
     )
     p = system.plant

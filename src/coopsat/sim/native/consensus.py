@@ -3,9 +3,9 @@
 network's gather done in the same loop.
 
 XLA:CPU emits that law (gather each link's message, error quaternion, per-receiver sum) as a
-loop fusion that recomputes the gather for every output component and is not vectorised:
-about 10 µs for 1000 spacecraft on a ring, more than the whole RK4 tick of the native plant
-kernel (measured with ``jax.profiler``, docs/architecture.md "Engine speed"). Here each link's
+loop fusion that recomputes the gather for every output component and is not vectorised,
+and costs more than the whole RK4 tick of the native plant kernel (docs/engine-notes.md,
+"Native kernels"). Here each link's
 message is read from the network's table once (``table[:, index[e]]``: the transmitters'
 current outboxes, or a delay line), its term computed in registers and added to its
 receiver's sum.
@@ -54,7 +54,7 @@ def _error_vector(p0, p1, p2, p3, q0, q1, q2, q3, short_way):
     e1 = p0 * q1 + c1 * q0 + c2 * q3 - c3 * q2
     e2 = p0 * q2 - c1 * q3 + c2 * q0 + c3 * q1
     e3 = p0 * q3 + c1 * q2 - c2 * q1 + c3 * q0
-    # Arithmetic, not a branch: a conditional here keeps the loops around it scalar (5× slower).
+    # Arithmetic, not a branch: a conditional here keeps the loops around it scalar.
     sign = 1.0 - 2.0 * (short_way & (e0 < 0.0))
     return sign * e1, sign * e2, sign * e3
 
@@ -65,7 +65,7 @@ def _message(q_tab, w_tab, j):
     as ``jnp.take`` fills (the engine then stops on the non-finite state; no stray read)."""
     inside = np.uint64(j) < q_tab.shape[1]
     c = np.uint64(j) if inside else np.uint64(0)
-    f = 1.0 if inside else np.nan  # × 1 is exact; a branch here made the loops around it 5× slower
+    f = 1.0 if inside else np.nan  # × 1 is exact; a branch here keeps the loops around it scalar
     return (f * q_tab[0, c], f * q_tab[1, c], f * q_tab[2, c], f * q_tab[3, c],
             f * w_tab[0, c], f * w_tab[1, c], f * w_tab[2, c])
 
@@ -83,7 +83,7 @@ def _add_terms(mq, mw, off, q, w, r0, weight, base, m, alpha, beta, short_way, a
     """``acc[:, i] += a (α e_q + β (ω_r − ω_j))`` for receivers ``r = r0 + i``, i < m, whose
     messages are columns ``off + i`` of ``mq`` (4, ·) and ``mw`` (3, ·), weights
     ``weight[base + i]``. Indices are unsigned: numba then emits no negative-index wrap-around
-    select, which otherwise makes this loop 3× slower."""
+    select, which would slow this loop down."""
     for i in range(m):
         k = np.uint64(i)
         r = np.uint64(r0) + k

@@ -5,8 +5,8 @@ lets it finish later (``XLA_FFI_Future``): the handler schedules one task per sp
 call's future and returns; the last task to finish marks the future available, and XLA
 keeps every buffer alive until then (``jaxlib/include/xla/ffi/api/c_api.h``). The handler
 never waits, so it cannot deadlock on a busy or one-thread pool, and no thread is started
-besides XLA's own (numba's ``prange`` would start its own pool: measured slower, and it
-cannot be cached).
+besides XLA's own (numba's ``prange`` would start its own pool, which is slower and cannot be
+cached).
 
 The tasks share a record in memory from ``malloc``: word 0 counts the tasks still running,
 word 1 holds the future, word 2 XLA's API, word 3 the number of tasks; then one word per task
@@ -37,10 +37,8 @@ from coopsat.sim.native.ffi import i64_at, stack_array
 
 PARALLEL_MIN = 4096
 """Fewest spacecraft in one kernel call (one run) for the kernel to split its work over XLA's
-CPU thread pool. Measured, consensus on two cores against one (M spacecraft-steps/s):
-N = 1024 49 vs 57 (slower: the hand-over costs more than the second core saves), N = 2048
-60 vs 57, N = 4096 67 vs 59, N = 10 000 70 vs 43. The torque-free tick (the plant kernel
-alone) gains nothing below about 20 000 (N = 10 000: 84 vs 88; N = 20 000: 134 vs 70)."""
+CPU thread pool: below it the hand-over costs more than a second core saves
+(docs/engine-notes.md, "XLA's thread pool for large runs")."""
 
 HEAD = 4
 """Words of the record before the per-task words: tasks running, future, API, tasks."""
@@ -235,9 +233,8 @@ def task_words(data, shared):
     Spans are claimed, not assigned: each task takes the span of the core it runs on
     (``sched_getcpu() mod tasks``) when no other task has, else the first one left, so a
     span's spacecraft tend to stay in one core's cache from tick to tick although the
-    thread that goes on with XLA's work changes from call to call. Measured against spans
-    in task order: consensus N = 5000 54 → 60 M spacecraft-steps/s; N = 10 000 and the
-    torque-free tick unchanged. Each of the T tasks claims exactly one of the T spans."""
+    thread that goes on with XLA's work changes from call to call (docs/engine-notes.md).
+    Each of the T tasks claims exactly one of the T spans."""
     k = carray(i64_at(data), 1)[0]
     head = data - 8 * (HEAD + k)
     tasks = carray(i64_at(head), HEAD)[3]

@@ -5,7 +5,7 @@ inertia, no gravity, no disturbance).
 Per spacecraft (one SIMD lane of component-major rows), ``sub`` classical RK4 steps of length
 ``h`` of ``q̇ = ½ q ⊗ [0, ω]`` and ``I ω̇ = τ − ω × (I ω + h_w)`` (SPEC §0; 2010 consensus paper
 eqs. (1)–(2)) with ``τ`` and the wheel momentum ``h_w`` held, then ``q`` renormalised: what
-``sim.engine._integrate_tick`` computes for such a plant through ``_rk4``,
+``sim.tick._integrate_tick`` computes for such a plant through ``_rk4``,
 ``plant_derivative`` and ``quat_normalize``, in the same operation order (products and sums of
 ``quat_kinematics``, ``omega_dot_b`` and ``cross``; the stage inputs ``z + (h/2)·k``; the
 update ``z + (h/6)·(((k1 + 2 k2) + 2 k3) + k4)``). XLA:CPU splits that tick into about nine
@@ -126,7 +126,7 @@ def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out, lo, hi):
     and LLVM would take its scalar fallback: spacecraft then go in blocks of :data:`BLOCK`,
     each block's new state built in stack scratch (which aliases nothing) and then stored,
     both loops vectorised. Into other buffers (a batch) the new state is stored directly:
-    the scratch pass cost a batch 8 % (measured). Indices are unsigned, so numba emits no
+    the scratch pass would only cost time there. Indices are unsigned, so numba emits no
     negative-index wrap-around select."""
     if q_out.ctypes.data != q.ctypes.data:
         for i in range(lo, hi):
@@ -152,8 +152,8 @@ def _rows(q, w, hw, tq, inertia, inv, h, last, q_out, w_out, lo, hi):
 def _rows_at(q_at, w_at, hw_at, tq_at, inertia_at, inv_at, h, last, q_out_at, w_out_at, m, lo, hi):
     """:func:`_rows` on the rows (4 or 3, M) at these addresses. Kernels call this rather than
     :func:`_rows` itself: a numba call passes each array as a 9-word struct, and ten of them
-    cost about 60 ns a call (measured at M = 5: 340 → 283 ns for the whole FFI call), while
-    the rows built here, with :func:`_rows` inlined, vectorise as before."""
+    cost a noticeable part of a small call (docs/engine-notes.md), while the rows built here,
+    with :func:`_rows` inlined, vectorise as before."""
     _rows(carray(f64_at(q_at), (4, m)), carray(f64_at(w_at), (3, m)), carray(f64_at(hw_at), (3, m)),
           carray(f64_at(tq_at), (3, m)), carray(f64_at(inertia_at), (3, m)), carray(f64_at(inv_at), (3, m)), h, last,
           carray(f64_at(q_out_at), (4, m)), carray(f64_at(w_out_at), (3, m)), lo, hi)

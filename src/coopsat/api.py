@@ -99,7 +99,7 @@ def validate(scenario: ScenarioLike) -> Validation:
 
 
 def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path | None = None, figures: bool = False,
-        progress: bool = False, allow_long: bool = False) -> Result:
+        progress: bool = False, allow_long: bool = False, native: bool | None = None) -> Result:
     """Run one scenario (``coopsat run``), in memory.
 
     Parameters
@@ -115,6 +115,10 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
         Progress bar once a run has taken 2 s.
     allow_long : bool
         Run even when the estimated wall time is above half an hour.
+    native : bool, optional
+        Native CPU kernels: True requires them (an error where they cannot run), False keeps
+        the whole loop in XLA; None (default) follows ``COOPSAT_NATIVE`` (``auto``: the kernels
+        where this process's check passes, else XLA with one notice; docs/api.md).
 
     Returns
     -------
@@ -122,7 +126,7 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
         ``dataset`` (xarray), ``metrics``, ``comparison``, ``checks``, ``save(dir)``,
         ``figures()``.
     """
-    result = _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long)
+    result = _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long, native=native)
     if out_dir is not None:
         result.save(out_dir, figures=figures)
     return result
@@ -148,18 +152,18 @@ class Batch:
     n_batches: int
 
 
-def run_batch(scenarios: Sequence[ScenarioLike], *, progress: bool = False) -> Batch:
+def run_batch(scenarios: Sequence[ScenarioLike], *, progress: bool = False, native: bool | None = None) -> Batch:
     """Run several scenarios, one vmapped batch per shared structure (``coopsat sweep``'s engine).
 
     Each run's dataset and metrics are those :func:`run` gives for the same scenario (to the
     last bits: a batch groups its floating-point sums differently). Published numbers are not
-    compared (``comparison`` is empty).
+    compared (``comparison`` is empty). ``native``: as :func:`run`.
     """
     from coopsat.workflows.sweep import group_runs, simulate_runs
 
     docs = [_document(s) for s in scenarios]
     builds = [prepare(d.model, check_published=False) for d in docs]
-    datasets, compile_s, run_s = simulate_runs(builds, progress)
+    datasets, compile_s, run_s = simulate_runs(builds, progress, native=native)
     results = []
     for doc, built, ds in zip(docs, builds, datasets):
         metrics, _ = analyse(built, ds, compare=False)

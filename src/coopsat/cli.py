@@ -9,6 +9,7 @@ import argparse
 import signal
 import sys
 import threading
+import warnings
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -53,9 +54,10 @@ def _input_errors():
     from coopsat.workflows.tune import TuneError
     from coopsat.workflows.pair import PairError
     from coopsat.plugins import PluginError
+    from coopsat.sim.native.capability import NativeUnavailableError
 
     return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError,
-            PairError, PluginError)
+            PairError, PluginError, NativeUnavailableError)
 
 
 def _cmd_list(args):
@@ -433,6 +435,15 @@ def build_parser():
     return p
 
 
+def _show_notice(message, category, filename, lineno, file=None, line=None):
+    """coopsat's own warnings (such as the native kernels' fallback) as one line on stderr;
+    any other as Python shows it."""
+    if category.__module__.startswith("coopsat."):
+        print(f"coopsat: notice: {message}", file=sys.stderr)
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
 def main(argv=None):
     """Entry point of the ``coopsat`` command; returns the exit status.
 
@@ -447,7 +458,9 @@ def main(argv=None):
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = interrupt.install() if in_main_thread else {}
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_notice
+            return args.func(args)
     except _input_errors() as err:
         print(f"coopsat: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -127,12 +127,17 @@ def _unroll_small_threefry():
     ``observation-independent`` 0.93 → 0.60 s, ``delay-classic`` 0.092 → 0.027 s; larger
     hashes keep the rolled loop (unrolled, the PSO's draws made ``cartwheel-keeping-pso``
     3× slower). The hash is the same integer arithmetic either way, so every random number
-    is unchanged. JAX's private module may move: then nothing is changed."""
-    try:
-        from math import prod
+    is unchanged. JAX's private module may move (it is ``jax._src.prng`` before jax 0.10.2):
+    where neither holds the lowering rules, nothing is changed."""
+    from math import prod
 
-        from jax._src.random import threefry2x32 as threefry
+    try:
         from jax.interpreters import mlir
+
+        try:
+            from jax._src.random import threefry2x32 as threefry
+        except ImportError:
+            from jax._src import prng as threefry
 
         rolled, unrolled = threefry._threefry2x32_cpu_lowering_rule, threefry._threefry2x32_lowering_rule
         primitive = threefry.threefry2x32_p

@@ -17,7 +17,7 @@ docs/engine-notes.md.
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from coopsat.core import runtime
 
@@ -219,9 +219,30 @@ def _assemble(system, chunks, last, n_records, batch):
     return samples
 
 
-def simulate(system, n_records, record_interval_s, *, batched=False, progress=False, chunk=None, names=None,
-             every_core=True, bucket=None, cancel=None):
-    """Run the closed loop for ``n_records`` record intervals.
+def simulate(system, n_records, record_interval_s, *, native=None, **options):
+    """Run the closed loop for ``n_records`` record intervals, with the native CPU kernels
+    where ``system`` allows them and this process runs them.
+
+    ``native``: True requires the kernels (:class:`~coopsat.sim.native.capability.
+    NativeUnavailableError` where they cannot run), False keeps the whole loop in XLA, None
+    follows ``COOPSAT_NATIVE`` (default ``auto``: the kernels where the process's check passes,
+    else XLA with one :class:`~coopsat.sim.native.capability.NativeFallbackWarning`). The
+    check is made once per process (:mod:`coopsat.sim.native.capability`), so every run of a
+    process, alone or in a batch, takes the same path. The other arguments are
+    :func:`simulate_as_built`'s.
+    """
+    from coopsat.sim.native.capability import use_native
+
+    if system.structure.native and not use_native(native):
+        system = replace(system, structure=replace(system.structure, native=False))
+    return simulate_as_built(system, n_records, record_interval_s, **options)
+
+
+def simulate_as_built(system, n_records, record_interval_s, *, batched=False, progress=False, chunk=None, names=None,
+                      every_core=True, bucket=None, cancel=None):
+    """Run the closed loop for ``n_records`` record intervals, with native kernels exactly as
+    ``system.structure.native`` says (no process check: :func:`simulate` makes it; the native
+    kernels' probe runs this).
 
     Parameters
     ----------

@@ -141,14 +141,15 @@ def metric_names(built):
     return set(metrics)
 
 
-def simulate_built(built, progress=False):
-    """Run a built scenario; returns (dataset, RunOutput)."""
+def simulate_built(built, progress=False, native=None):
+    """Run a built scenario; returns (dataset, RunOutput). ``native``: as
+    :func:`coopsat.sim.engine.simulate`."""
     from coopsat.sim.engine import output_specs, simulate
     from coopsat.sim.recorder import to_dataset
 
     scenario = built.scenario
     out = simulate(built.system, built.n_records, built.record_interval_s, progress=progress, names=built.names,
-                   cancel=interrupt.check)
+                   cancel=interrupt.check, native=native)
     attrs = {
         "scenario_name": scenario.name,
         "scenario_toml": resolved_toml(scenario),
@@ -282,7 +283,7 @@ def check_run_length(built, allow_long=False):
     return estimate
 
 
-def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=None):
+def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=None, native=None):
     """Run a scenario in memory: build, design checks, closed loop, metrics, comparison.
 
     Parameters
@@ -297,6 +298,8 @@ def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=Non
         Run even when the estimated wall time is above :data:`LONG_RUN_S`.
     on_warning : callable, optional
         Called with each failed design check (one line) before the simulation starts.
+    native : bool, optional
+        As :func:`coopsat.sim.engine.simulate`.
 
     Returns
     -------
@@ -321,7 +324,7 @@ def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=Non
         if on_warning is not None:
             on_warning(note)
     interrupt.check()
-    ds, out = simulate_built(built, progress=progress)
+    ds, out = simulate_built(built, progress=progress, native=native)
     metrics, rows = analyse(built, ds)
     checks = {c.name: c for c in built.checks.values()}
     return Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built)

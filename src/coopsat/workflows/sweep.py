@@ -180,14 +180,14 @@ def prepare_runs(ref, override_lists):
     return [prepare(load_scenario(ref, overrides), check_published=False) for overrides in override_lists]
 
 
-def simulate_runs(builds, progress=False, every_core=True, bucket=None):
+def simulate_runs(builds, progress=False, every_core=True, bucket=None, native=None):
     """Simulate built runs, one vmapped batch per group of :func:`group_runs`.
 
     ``every_core``: share each batch among the CPU devices (:func:`coopsat.sim.engine.simulate`);
     False keeps a run's result independent of the machine (campaigns, and their replay).
     ``bucket``: the largest batch expected; each group is padded to a recurring size below it
     (:func:`coopsat.sim.engine.bucket_runs`), so that the groups of many batches share
-    compiled programs (campaigns).
+    compiled programs (campaigns). ``native``: as :func:`coopsat.sim.engine.simulate`.
 
     Returns
     -------
@@ -205,6 +205,7 @@ def simulate_runs(builds, progress=False, every_core=True, bucket=None):
         out = simulate(
             stack_systems([builds[k].system for k in group]), first.n_records, first.record_interval_s,
             batched=True, progress=progress, names=first.names, every_core=every_core, bucket=bucket, cancel=interrupt.check,
+            native=native,
         )
         compile_s += out.compile_s
         run_s += out.run_s

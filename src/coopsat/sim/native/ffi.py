@@ -65,7 +65,7 @@ def check_arguments(target, spec, args):
         raise KernelArgumentError(f"native kernel {target}: {len(args)} arguments, its handler reads {len(spec)}")
     sizes = {}
     for (name, dtype, pattern), a in zip(spec, args):
-        shape, got = tuple(np.shape(a)), np.dtype(getattr(a, "dtype", np.result_type(a)))
+        shape, got = tuple(np.shape(a)), np.dtype(a.dtype) if hasattr(a, "dtype") else np.result_type(a)
         expected = tuple(sizes.setdefault(d, n) if isinstance(d, str) else d for d, n in zip(pattern, shape))
         if got != np.dtype(dtype) or len(shape) != len(pattern) or shape != expected:
             raise KernelArgumentError(

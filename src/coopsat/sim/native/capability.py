@@ -1,0 +1,194 @@
+"""Whether the native CPU kernels run in this process: decided once, with the XLA path as the
+fallback that is always correct.
+
+The kernels read XLA's FFI call frame as raw words (:mod:`coopsat.sim.native.ffi`), so they are
+trusted only where that reading was tested. At the first run that could use them, in order:
+
+1. the switch: ``native=`` of :func:`coopsat.run` / :func:`coopsat.sim.engine.simulate`, else
+   the environment variable :data:`ENV` (``0``, ``1`` or ``auto``, the default);
+2. the platform and architecture (:data:`PLATFORMS`: 64-bit Linux; elsewhere they were never
+   run);
+3. numba, llvmlite and ``jax.ffi`` import, and jax and jaxlib lie in :data:`TESTED_JAX`, the
+   range the test suite runs on (CI's newest and lowest-versions jobs);
+4. a probe: a small synthetic formation (:mod:`coopsat.sim.synthetic`) that goes through each
+   native target — the rigid-body tick, the pulsed (piecewise) tick, the consensus law, and
+   XLA's thread pool — run once with the kernels and once without, the two compared.
+
+``auto`` takes the XLA path when a step fails, with one :class:`NativeFallbackWarning` per
+process naming the reason (the command line prints it as one line); ``1`` makes the failure an
+error (:class:`NativeUnavailableError`), for a test or a benchmark that must measure the
+kernels. The verdict is kept for the process, so every run of a process — alone, in a batch, in
+a campaign's replay — takes the same path and gives the same bits.
+"""
+
+import os
+import platform
+import sys
+import threading
+import warnings
+from importlib import metadata
+from typing import NamedTuple
+
+ENV = "COOPSAT_NATIVE"
+"""Environment variable of the switch: ``0`` (XLA only), ``1`` (kernels, or an error), ``auto``."""
+
+MODES = ("0", "1", "auto")
+
+PLATFORMS = {("linux", "x86_64"), ("linux", "aarch64")}
+"""(``sys.platform``, ``platform.machine()``) where the kernels were built and run."""
+
+TESTED_JAX = ((0, 9, 1), (0, 11, 0))
+"""jax and jaxlib versions the kernels are tested on, the first included, the second excluded
+(pyproject.toml's bounds; CI's lowest-versions job runs the first). jaxlib 0.9.1 is the first
+whose XLA FFI is API version 0.3, the handlers' (earlier ones refuse them at registration); the
+next minor may change the FFI: raise the bound once tested."""
+
+PROBE_RTOL = 1e-12
+"""Largest difference between the probe's runs, relative to each output's scale. The plant
+kernels are bit-identical to XLA; the law kernel rounds differently (≈ 1e-16 relative)."""
+
+
+class NativeFallbackWarning(UserWarning):
+    """The native kernels are off in this process and the XLA path runs (results unchanged)."""
+
+
+class NativeUnavailableError(RuntimeError):
+    """The native kernels were required (``COOPSAT_NATIVE=1`` or ``native=True``) but cannot
+    run here; or the switch has a value it does not know."""
+
+
+class Verdict(NamedTuple):
+    """Whether the kernels may run, and why not (None when they may)."""
+
+    native: bool
+    reason: str | None
+
+
+def requested(native=None):
+    """The mode asked for: ``native`` (True → ``"1"``, False → ``"0"``) when given, else the
+    environment variable :data:`ENV` (default ``"auto"``).
+
+    Raises
+    ------
+    NativeUnavailableError
+        When :data:`ENV` holds another value.
+    """
+    if native is not None:
+        return "1" if native else "0"
+    value = os.environ.get(ENV, "auto").strip().lower() or "auto"
+    if value not in MODES:
+        raise NativeUnavailableError(f"{ENV}={os.environ[ENV]!r}: expected 0, 1 or auto")
+    return value
+
+
+def platform_problem(system=None, machine=None):
+    """Why the kernels cannot run on this platform (None when they can). ``system``,
+    ``machine``: ``sys.platform`` and ``platform.machine()`` unless given."""
+    system = sys.platform if system is None else system
+    machine = (platform.machine() if machine is None else machine).lower()
+    machine = {"amd64": "x86_64", "arm64": "aarch64"}.get(machine, machine)
+    if (system, machine) not in PLATFORMS:
+        return f"the native kernels are built and tested on 64-bit Linux only, not on {system} {machine}"
+    return None
+
+
+def _release(version):
+    """(major, minor, micro) of a version string such as ``0.10.2``, ``0.9`` or ``0.5.0.dev1``."""
+    parts = [int("".join(c for c in part if c.isdigit()) or 0) for part in version.split(".")[:3]]
+    return tuple(parts + [0] * (3 - len(parts)))
+
+
+def version_problem(versions=None):
+    """Why the installed jax/jaxlib cannot run the kernels (None when they can). ``versions``:
+    ``{"jax": "0.10.2", "jaxlib": "0.10.2"}`` unless given (installed metadata)."""
+    if versions is None:
+        versions = {name: metadata.version(name) for name in ("jax", "jaxlib")}
+    low, high = TESTED_JAX
+    for name, version in versions.items():
+        if not low <= _release(version) < high:
+            return (f"{name} {version} is outside >={'.'.join(map(str, low))},<{'.'.join(map(str, high))}, the range the "
+                    "native kernels are tested on")
+    return None
+
+
+def import_problem():
+    """Why the kernels' libraries cannot be used (None when they can): numba, llvmlite and
+    ``jax.ffi``."""
+    try:
+        import llvmlite  # noqa: F401
+        import numba  # noqa: F401
+    except ImportError as err:
+        return f"{err.name or 'numba'} is not installed (pip install \"coopsat[native]\" brings it)"
+    import jax
+
+    if not hasattr(jax, "ffi"):
+        return f"jax {jax.__version__} has no jax.ffi"
+    return None
+
+
+def probe_problem():
+    """Why the probe runs disagree or fail (None when they agree): each native target once with
+    the kernels and once without, on a synthetic formation (:func:`coopsat.sim.synthetic.
+    probe_systems`)."""
+    import numpy as np
+
+    from coopsat.sim.engine import simulate_as_built
+    from coopsat.sim.synthetic import probe_systems
+
+    for what, (native, xla, n_records, record_s) in probe_systems().items():
+        try:
+            a = simulate_as_built(native, n_records, record_s).samples
+            b = simulate_as_built(xla, n_records, record_s).samples
+        except Exception as err:  # any failure of the kernels is a reason to fall back
+            line = str(err).strip().splitlines()[0] if str(err).strip() else ""
+            return f"the probe run ({what}) failed: {type(err).__name__}: {line}"[:300]
+        for key in b:
+            scale = max(float(np.max(np.abs(b[key]), initial=0.0)), 1e-300)
+            if a[key].shape != b[key].shape or not np.all(np.abs(a[key] - b[key]) <= PROBE_RTOL * scale):
+                return f"the probe run ({what}) differs from the XLA path in '{key}'"
+    return None
+
+
+_lock = threading.Lock()
+_verdict = []
+_warned = []
+
+
+def _checked():
+    """The process's verdict: the first failing check's reason, or None (cached)."""
+    with _lock:
+        if not _verdict:
+            reason = platform_problem() or import_problem() or version_problem() or probe_problem()
+            _verdict.append(Verdict(reason is None, reason))
+        return _verdict[0]
+
+
+def use_native(native=None):
+    """Whether this process runs the native kernels for a run that asks ``native`` (True,
+    False, or None: :data:`ENV`).
+
+    Raises
+    ------
+    NativeUnavailableError
+        The kernels were required and cannot run, or :data:`ENV` is not 0, 1 or auto.
+    """
+    mode = requested(native)
+    if mode == "0":
+        return False
+    verdict = _checked()
+    if verdict.native:
+        return True
+    if mode == "1":
+        raise NativeUnavailableError(f"native kernels required ({ENV}=1 or native=True) but {verdict.reason}")
+    if not _warned:
+        _warned.append(True)
+        warnings.warn(f"native CPU kernels off: {verdict.reason}; running the XLA path (same results, slower)",
+                      NativeFallbackWarning, stacklevel=3)
+    return False
+
+
+def reset():
+    """Forget the verdict and the notice (tests)."""
+    with _lock:
+        _verdict.clear()
+        _warned.clear()

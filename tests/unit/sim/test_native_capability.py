@@ -1,0 +1,243 @@
+"""Issue 25: the native kernels are used only where they were tested, fall back to the XLA path
+otherwise (one notice), obey COOPSAT_NATIVE, and refuse wrongly shaped buffers."""
+
+import ctypes
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from coopsat.sim.native import capability, ffi
+
+
+@pytest.fixture(autouse=True)
+def fresh_verdict():
+    capability.reset()
+    yield
+    capability.reset()
+
+
+# --- the switch -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value, mode", [("0", "0"), ("1", "1"), ("auto", "auto"), (" AUTO ", "auto"), ("", "auto")])
+def test_environment_switch(monkeypatch, value, mode):
+    monkeypatch.setenv(capability.ENV, value)
+    assert capability.requested() == mode
+
+
+def test_argument_wins_over_the_environment(monkeypatch):
+    monkeypatch.setenv(capability.ENV, "0")
+    assert capability.requested(True) == "1"
+    monkeypatch.setenv(capability.ENV, "1")
+    assert capability.requested(False) == "0"
+
+
+def test_unknown_switch_value_is_one_clear_line(monkeypatch):
+    monkeypatch.setenv(capability.ENV, "yes")
+    with pytest.raises(capability.NativeUnavailableError, match=r"COOPSAT_NATIVE='yes': expected 0, 1 or auto$"):
+        capability.requested()
+
+
+def test_off_decides_nothing(monkeypatch):
+    monkeypatch.setattr(capability, "_checked", lambda: pytest.fail("no check when the kernels are off"))
+    assert capability.use_native(False) is False
+
+
+# --- platforms and versions -----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("system, machine", [("linux", "x86_64"), ("linux", "aarch64"), ("linux", "arm64"), ("linux", "AMD64")])
+def test_tested_platforms(system, machine):
+    assert capability.platform_problem(system, machine) is None
+
+
+@pytest.mark.parametrize("system, machine", [("win32", "AMD64"), ("darwin", "arm64"), ("darwin", "x86_64"), ("linux", "i686"),
+                                             ("linux", "ppc64le")])
+def test_other_platforms_fall_back_without_raising(monkeypatch, system, machine):
+    monkeypatch.setattr(capability.sys, "platform", system)
+    monkeypatch.setattr(capability.platform, "machine", lambda: machine)
+    monkeypatch.delenv(capability.ENV, raising=False)
+    reason = capability.platform_problem()
+    assert reason and system in reason
+    with pytest.warns(capability.NativeFallbackWarning, match="running the XLA path"):
+        assert capability.use_native() is False
+
+
+def test_a_fallback_notice_is_given_once_per_process(monkeypatch):
+    monkeypatch.setattr(capability.sys, "platform", "win32")
+    monkeypatch.delenv(capability.ENV, raising=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert [capability.use_native() for _ in range(3)] == [False] * 3
+    assert len([w for w in caught if issubclass(w.category, capability.NativeFallbackWarning)]) == 1
+
+
+def test_required_but_unavailable_is_an_error(monkeypatch):
+    monkeypatch.setattr(capability.sys, "platform", "darwin")
+    with pytest.raises(capability.NativeUnavailableError, match="native kernels required .* 64-bit Linux only"):
+        capability.use_native(True)
+
+
+@pytest.mark.parametrize("versions, ok", [
+    ({"jax": "0.10.2", "jaxlib": "0.10.2"}, True),
+    ({"jax": "0.9.1", "jaxlib": "0.10.1.dev20261101"}, True),
+    ({"jax": "0.9.0", "jaxlib": "0.9.0"}, False),  # XLA FFI API 0.2: refuses the handlers
+    ({"jax": "0.5.3", "jaxlib": "0.5.3"}, False),
+    ({"jax": "0.11.0", "jaxlib": "0.11.0"}, False),
+    ({"jax": "0.10.2", "jaxlib": "1.0"}, False),
+])
+def test_jax_version_range(monkeypatch, versions, ok):
+    monkeypatch.setattr(capability, "TESTED_JAX", ((0, 9, 1), (0, 11, 0)))
+    reason = capability.version_problem(versions)
+    assert (reason is None) == ok
+    if not ok:
+        assert "is outside >=0.9.1,<0.11.0, the range the native kernels are tested on" in reason
+
+
+def test_installed_jax_is_in_the_tested_range():
+    """CI's jobs install only versions inside the range; a newer jax needs the range raised
+    (after the tests pass on it)."""
+    assert capability.version_problem() is None
+
+
+def test_missing_numba_names_the_extra(monkeypatch):
+    import builtins
+
+    real = builtins.__import__
+
+    def no_numba(name, *args, **kwargs):
+        if name == "numba":
+            raise ImportError("No module named 'numba'", name="numba")
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_numba)
+    assert capability.import_problem() == 'numba is not installed (pip install "coopsat[native]" brings it)'
+
+
+# --- the C library lookup of the thread pool ------------------------------------------------
+
+
+@pytest.mark.parametrize("error", [TypeError, OSError, AttributeError])
+def test_pool_c_library_lookup_never_raises(error):
+    """Windows' ctypes.CDLL(None) raises TypeError; macOS's libc has no sched_getcpu."""
+    from coopsat.sim.native import pool
+
+    def loader(name):
+        raise error("no C library here")
+
+    assert pool._sched_getcpu_address(loader) == pool._no_cpu.address
+    assert pool._sched_getcpu_address(lambda name: ctypes.CDLL(None)) not in (None, 0)
+
+
+# --- buffers --------------------------------------------------------------------------------
+
+
+def _tick_args(m, omega_rows=3, dtype=np.float64):
+    rows = lambda k: jnp.ones((k, m), dtype)  # noqa: E731
+    return (rows(4), rows(omega_rows), rows(3), rows(3), rows(3), rows(3), jnp.float64(0.01), np.int64(1), np.int64(1))
+
+
+def test_kernel_refuses_a_wrongly_shaped_buffer():
+    from coopsat.sim.native import attitude
+    from coopsat.sim.native.rigid_body import TARGET
+
+    attitude._register()
+    results = (jax.ShapeDtypeStruct((4, 5), np.float64), jax.ShapeDtypeStruct((3, 5), np.float64))
+    q, w = jax.jit(lambda *a: ffi.call(TARGET, attitude._spec(), results, a, vmap_method="broadcast_all"))(*_tick_args(5))
+    assert np.all(np.isfinite(q)) and q.shape == (4, 5)  # the right layout runs
+    with pytest.raises(ffi.KernelArgumentError, match=r"argument omega_b is float64 \(4, 5\), its handler reads float64 \(3, M\)"):
+        ffi.call(TARGET, attitude._spec(), results, _tick_args(5, omega_rows=4))
+
+
+def test_kernel_refuses_another_dtype_or_mismatched_sizes():
+    from coopsat.sim.native import attitude
+
+    args = list(_tick_args(5))
+    args[1] = jnp.ones((3, 5), np.float32)
+    with pytest.raises(ffi.KernelArgumentError, match="argument omega_b is float32"):
+        ffi.check_arguments("t", attitude._spec(), args)
+    args = list(_tick_args(5))
+    args[3] = jnp.ones((3, 6))  # a torque for 6 spacecraft, a state for 5
+    with pytest.raises(ffi.KernelArgumentError, match=r"argument torque_b is float64 \(3, 6\)"):
+        ffi.check_arguments("t", attitude._spec(), args)
+    with pytest.raises(ffi.KernelArgumentError, match="8 arguments, its handler reads 9"):
+        ffi.check_arguments("t", attitude._spec(), _tick_args(5)[:-1])
+
+
+def test_law_kernel_layout():
+    from coopsat.sim.native.laws import SPEC
+
+    t, n, e = 7, 5, 10
+    f, i4 = np.float64, np.int32
+    good = [np.ones((4, t)), np.ones((3, t)), np.ones((4, n)), np.ones((3, n)), np.ones((1, e), i4), np.ones((1, e), i4),
+            np.ones((1, e)), np.ones((1, SPEC[7][2][1]), f), np.ones((1, 4), np.int64)]
+    ffi.check_arguments("law", SPEC, good)
+    bad = list(good)
+    bad[5] = np.ones((1, e + 1), i4)
+    with pytest.raises(ffi.KernelArgumentError, match="argument dst"):
+        ffi.check_arguments("law", SPEC, bad)
+
+
+# --- the decision in the engine, the API and the command line ----------------------------
+
+
+def test_probe_passes_here_and_the_verdict_is_native():
+    assert capability.probe_problem() is None
+    assert capability.use_native() is True
+
+
+def test_a_failing_probe_falls_back_with_its_reason(monkeypatch):
+    from coopsat.sim import engine
+
+    real = engine.simulate_as_built
+
+    def broken_kernels(system, *args, **kwargs):
+        if system.structure.native:
+            raise RuntimeError("INVALID_ARGUMENT: handler's API version (0.3) is incompatible with the framework's (0.1)")
+        return real(system, *args, **kwargs)
+
+    monkeypatch.setattr(engine, "simulate_as_built", broken_kernels)
+    reason = capability.probe_problem()
+    assert reason.startswith("the probe run (rigid-body tick and consensus law) failed: RuntimeError: INVALID_ARGUMENT")
+
+
+def _metrics(native, t_final_s):
+    import coopsat
+
+    scenario = coopsat.Scenario.load("rigid-body-free").set("sim.t_final_s", t_final_s)
+    return coopsat.run(scenario, native=native).metrics
+
+
+def test_switch_off_gives_the_native_metrics_bit_for_bit(monkeypatch):
+    """The rigid-body plant kernel is bit-identical to XLA: so are the metrics."""
+    native = _metrics(True, 2.0)
+    assert _metrics(False, 2.0) == native
+    monkeypatch.setenv(capability.ENV, "0")
+    assert _metrics(None, 2.0) == native
+
+
+def test_cli_prints_the_fallback_as_one_notice_line(monkeypatch, tmp_path, capsys):
+    from coopsat.cli import main
+
+    monkeypatch.setattr(capability.sys, "platform", "win32")
+    monkeypatch.delenv(capability.ENV, raising=False)
+    assert main(["run", "rigid-body-free", "--set", "sim.t_final_s=1", "--out", str(tmp_path / "r"), "-q", "--no-figures"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith("coopsat: notice: native CPU kernels off: the native kernels are built and tested on 64-bit "
+                             "Linux only, not on win32 ")
+    assert err[0].endswith("; running the XLA path (same results, slower)")
+
+
+def test_cli_native_required_but_unavailable_exits_2(monkeypatch, tmp_path, capsys):
+    from coopsat.cli import main
+
+    monkeypatch.setattr(capability.sys, "platform", "darwin")
+    monkeypatch.setenv(capability.ENV, "1")
+    assert main(["run", "rigid-body-free", "--set", "sim.t_final_s=1", "--out", str(tmp_path / "r"), "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("coopsat: error: native kernels required (COOPSAT_NATIVE=1 or native=True)")
+    assert not (tmp_path / "r").exists()

@@ -103,7 +103,7 @@ def test_installed_jax_is_in_the_tested_range():
     assert capability.version_problem() is None
 
 
-def test_missing_numba_names_the_extra(monkeypatch):
+def test_missing_numba_is_a_reason_to_fall_back(monkeypatch):
     import builtins
 
     real = builtins.__import__
@@ -114,7 +114,7 @@ def test_missing_numba_names_the_extra(monkeypatch):
         return real(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", no_numba)
-    assert capability.import_problem() == 'numba is not installed (pip install "coopsat[native]" brings it)'
+    assert capability.import_problem().startswith("numba cannot be imported (No module named 'numba')")
 
 
 # --- the C library lookup of the thread pool ------------------------------------------------
@@ -184,7 +184,8 @@ def test_law_kernel_layout():
 # --- the decision in the engine, the API and the command line ----------------------------
 
 
-def test_probe_passes_here_and_the_verdict_is_native():
+def test_probe_passes_here_and_the_verdict_is_native(monkeypatch):
+    monkeypatch.delenv(capability.ENV, raising=False)
     assert capability.probe_problem() is None
     assert capability.use_native() is True
 

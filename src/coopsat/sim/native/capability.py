@@ -118,7 +118,7 @@ def import_problem():
         import llvmlite  # noqa: F401
         import numba  # noqa: F401
     except ImportError as err:
-        return f"{err.name or 'numba'} is not installed (pip install \"coopsat[native]\" brings it)"
+        return f"{err.name or 'numba'} cannot be imported ({err}); it is a dependency of coopsat: reinstall coopsat"
     import jax
 
     if not hasattr(jax, "ffi"):

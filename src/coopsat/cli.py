@@ -259,6 +259,12 @@ def _cmd_bench(args):
 _SET_HELP = "override a field before validation, e.g. --set controller.period_s=0.01 (repeatable)"
 
 
+def _set_option(parser, applied=""):
+    """The ``--set KEY.PATH=VALUE`` option every scenario command takes (``applied``: to which
+    runs, for the help)."""
+    parser.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP + applied)
+
+
 def _add_list(sub):
     sub.add_parser("list", help="list the bundled scenarios").set_defaults(func=_cmd_list)
 
@@ -273,7 +279,7 @@ def _add_show(sub):
 def _add_validate(sub):
     val = sub.add_parser("validate", help="validate a scenario (file or bundled name) and run its design checks")
     val.add_argument("scenario")
-    val.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
+    _set_option(val)
     val.set_defaults(func=_cmd_validate)
 
 
@@ -281,7 +287,7 @@ def _add_run(sub):
     run = sub.add_parser("run", help="run a scenario and write its run folder")
     run.add_argument("scenario", help="bundled scenario name or path to a .toml file")
     run.add_argument("--out", help="run folder (default runs/<scenario name>)")
-    run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
+    _set_option(run)
     run.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     run.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no metrics on stdout")
     run.add_argument("--allow-long", action="store_true", help="run even when the estimated wall time is above 30 min")
@@ -291,7 +297,7 @@ def _add_run(sub):
 def _add_margin(sub):
     margin = sub.add_parser("margin", help="exact constant-delay margin of a scenario's delayed consensus law")
     margin.add_argument("scenario")
-    margin.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
+    _set_option(margin)
     margin.set_defaults(func=_cmd_margin)
 
 
@@ -305,7 +311,7 @@ def _add_design(sub):
     dg.add_argument("--h", type=float, help="delay bound to certify, s (default: the network's largest single-hop delay)")
     dg.add_argument("--analyse", action="store_true", help="no synthesis: the largest h the LMI certifies for the scenario's K")
     dg.add_argument("--out", help="file that receives the designed gain (default <scenario>-delay-gain.toml)")
-    dg.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
+    _set_option(dg)
     dg.set_defaults(func=_cmd_design_delay_gain)
 
 
@@ -352,7 +358,7 @@ def _add_sweep(sub):
     sweep.add_argument("--plot", action="append", default=[], metavar="X:Y",
                        help="draw metric Y against X (a metric or a varied field) into DIR/sweep_X_Y.png; needs --out (repeatable)")
     sweep.add_argument("--out", metavar="DIR", help="folder for sweep.csv (one row per run), sweep.json and the plots")
-    sweep.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP + "; applied to every run")
+    _set_option(sweep, "; applied to every run")
     sweep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     sweep.set_defaults(func=_cmd_sweep)
 
@@ -369,7 +375,7 @@ def _add_pair(sub):
     pair.add_argument("--seeds", type=int, default=3, metavar="K", help="seeds seed(A) … seed(A)+K-1 (default 3)")
     pair.add_argument("--metrics", metavar="M1,M2,...", help="metrics to print (default all common ones)")
     pair.add_argument("--out", metavar="DIR", help="folder for pair.md, pair.nc (series and B - A), pair.png, pair.json")
-    pair.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP + "; applied to both")
+    _set_option(pair, "; applied to both")
     pair.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     pair.set_defaults(func=_cmd_pair)
 
@@ -391,7 +397,7 @@ def _add_tune(sub):
     tn.add_argument("--max-iter", type=int, default=50, help="SLSQP iterations (default 50)")
     tn.add_argument("--seed", type=int, default=0, help="seed of the drawn starts")
     tn.add_argument("--out", metavar="DIR", help="folder for tuned.toml, tune.md and tune.json")
-    tn.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE", help=_SET_HELP)
+    _set_option(tn)
     tn.add_argument("--quiet", "-q", action="store_true", help="no per-iteration lines")
     tn.set_defaults(func=_cmd_tune)
 

@@ -363,9 +363,8 @@ def simulate_dde(a0, terms, tau, x0, t_final, dt):
 
     Parameters
     ----------
-    a0 : array_like, shape (n, n)
-    terms : sequence of (array_like (n, n), int)
-        As :func:`exact_delay_margin`.
+    a0, terms
+        The system ``(n, n)`` and its delayed terms, as :func:`exact_delay_margin`.
     tau : float
         Constant single-hop delay, s; ``tau / dt`` must be a positive integer.
     x0 : array_like, shape (n,)

@@ -212,12 +212,20 @@ def _metrics(native, t_final_s):
     return coopsat.run(scenario, native=native).metrics
 
 
-def test_switch_off_gives_the_native_metrics_bit_for_bit(monkeypatch):
-    """The rigid-body plant kernel is bit-identical to XLA: so are the metrics."""
+def test_switch_off_gives_the_native_metrics(monkeypatch):
+    """The rigid-body plant kernel does XLA:CPU's arithmetic in XLA's order: on the jax it was
+    written against (0.10) the metrics are bit-identical; older XLAs fuse differently, and agree
+    to rounding (CI's lowest-versions job)."""
+    import jax
+
     native = _metrics(True, 2.0)
-    assert _metrics(False, 2.0) == native
     monkeypatch.setenv(capability.ENV, "0")
-    assert _metrics(None, 2.0) == native
+    for xla in (_metrics(False, 2.0), _metrics(None, 2.0)):
+        assert xla.keys() == native.keys()
+        if jax.__version__.startswith("0.10."):
+            assert xla == native
+        else:
+            assert all(xla[k] == pytest.approx(native[k], rel=1e-12, abs=1e-300) for k in native if native[k] is not None)
 
 
 def test_cli_prints_the_fallback_as_one_notice_line(monkeypatch, tmp_path, capsys):

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from coopsat.sim.synthetic import bench_system
-from coopsat.sim.engine import run_samples, simulate
+from coopsat.sim.engine import run_samples
+from coopsat.sim.engine import simulate_as_built as simulate  # the kernels as built, whatever COOPSAT_NATIVE says
 from coopsat.sim.native.consensus import TARGET as LAW_TARGET
 from coopsat.sim.native.rigid_body import TARGET
 from coopsat.sim.system import stack_systems

@@ -10,7 +10,8 @@ import numpy as np
 from coopsat.sim.synthetic import bench_system
 from coopsat.network.delivery import IdealNetwork
 from coopsat.network.topology import links_from_adjacency
-from coopsat.sim.engine import run_samples, simulate
+from coopsat.sim.engine import run_samples
+from coopsat.sim.engine import simulate_as_built as simulate  # the kernels as built, whatever COOPSAT_NATIVE says
 from coopsat.sim.native.pool import PARALLEL_MIN
 from coopsat.sim.system import as_arrays, stack_systems
 

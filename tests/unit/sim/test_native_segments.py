@@ -11,7 +11,8 @@ import pytest
 
 from coopsat.workflows.pipeline import prepare
 from coopsat.scenarios.load import load_scenario
-from coopsat.sim.engine import run_samples, simulate
+from coopsat.sim.engine import run_samples
+from coopsat.sim.engine import simulate_as_built as simulate  # the kernels as built, whatever COOPSAT_NATIVE says
 from coopsat.sim.tick import _sorted_rows
 from coopsat.sim.native.rigid_body import SEGMENTS_TARGET
 from coopsat.sim.system import stack_systems

@@ -18,6 +18,8 @@ handler was built against, and its traits) and at other stages than ``execute``;
 handler answers the first with :func:`answer_metadata` and ignores the others.
 """
 
+import functools
+
 import llvmlite.binding as llvm
 from numba import carray, njit, types
 from numba.core import cgutils
@@ -149,8 +151,10 @@ def buffer(frame, k, is_result):
     return buf[3], lead, dims[rank - 1] if rank > 0 else 1
 
 
+@functools.cache
 def vectorise_many_rows():
-    """Let LLVM vectorise loops over many rows: a kernel reading 8 rows and writing 2 needs
+    """Once per process (each kernel module asks; LLVM 14, numba 0.60's, rejects a second
+    setting of an option with a message on stderr), let LLVM vectorise loops over many rows: a kernel reading 8 rows and writing 2 needs
     more run-time overlap checks than LLVM's budget of 8, beyond which it silently leaves the
     loop scalar (the rigid-body kernel: 31 µs instead of 8.6 µs for 1000 spacecraft). numba
     cannot mark arguments ``noalias``, so the budget is raised. These are options of numba's

@@ -18,6 +18,7 @@ fresh interpreter). Two functions describe what changes, each documented where i
 
 import os
 import re
+import threading
 from importlib.metadata import version
 from pathlib import Path
 
@@ -36,6 +37,9 @@ def set_choices(float64=True, unrolled_threefry=True):
     enable()
 
 
+_enable_lock = threading.Lock()
+
+
 def enable():
     """Turn on float64 and the unrolled small Threefry lowering (unless declined), once.
 
@@ -45,18 +49,21 @@ def enable():
     global _enabled
     if _enabled:
         return
-    _enabled = True
-    import jax
+    with _enable_lock:  # a second thread's first run waits until float64 is on, not just asked for
+        if _enabled:
+            return
+        import jax
 
-    if _choices["float64"]:
-        jax.config.update("jax_enable_x64", True)
-    if _choices["unrolled_threefry"]:
-        _unroll_small_threefry()
+        if _choices["float64"]:
+            jax.config.update("jax_enable_x64", True)
+        if _choices["unrolled_threefry"]:
+            _unroll_small_threefry()
+        _enabled = True
 
 
 def _cpu_devices():
     """How many CPU devices XLA presents: one per core this process may use, so that the
-    groups of a large batch run on every core (``sim.engine._run_chunk_batched``); a single
+    groups of a large batch run on every core (``sim.programs._run_chunk_batched``); a single
     run stays on one. ``$COOPSAT_CPU_DEVICES`` overrides."""
     wanted = os.environ.get("COOPSAT_CPU_DEVICES")
     if wanted:

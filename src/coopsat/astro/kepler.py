@@ -7,7 +7,6 @@ closed loop.
 from typing import NamedTuple
 
 import numpy as np
-from scipy.optimize import newton
 
 CIRCULAR_E = 1e-11
 """Eccentricity below which :func:`rv_to_elements` treats an orbit as circular (the argument of
@@ -32,6 +31,8 @@ def solve_kepler(mean_anomaly_rad, eccentricity):
     float
         Eccentric anomaly, rad.
     """
+    from scipy.optimize import newton  # scipy.optimize takes 0.4 s to import
+
     m = float(np.mod(mean_anomaly_rad, 2.0 * np.pi))
     return float(
         newton(

@@ -112,6 +112,17 @@ def cache_settings():
     return {"jax_compilation_cache_dir": cache_dir, **CACHE_SETTINGS}
 
 
+def persistent_cache_dir(kind):
+    """Folder ``coopsat-<kind>`` inside JAX's persistent compilation cache, where coopsat keeps
+    what is worth keeping between processes (the native kernels' verdict, design results);
+    None when this process has no such cache (a library user who did not opt in)."""
+    import sys
+
+    jax = sys.modules.get("jax")
+    cache_dir = jax.config.jax_compilation_cache_dir if jax is not None else os.environ.get("JAX_COMPILATION_CACHE_DIR")
+    return Path(cache_dir) / f"coopsat-{kind}" if cache_dir else None
+
+
 def process_environment(cpu_devices=None, cache=True):
     """Environment variables of a process coopsat starts itself (a campaign's Dask worker):
     ``XLA_FLAGS`` (:func:`_xla_cpu_flags`) and, with ``cache``, the ``JAX_*`` variables of

@@ -24,13 +24,11 @@ axis aligned (a single chief against ``(3, n)`` deputies is ``(3, 1)``). A chief
 """
 
 
-import jax.numpy as jnp
-
-from coopsat.geometry.quaternion import cross, dot, join, split
+from coopsat.geometry.quaternion import array_namespace, cross, dot, join, split
 
 
 def _unit(x, axis):
-    return x / jnp.sqrt(dot(x, x, axis, keepdims=True))
+    return x / array_namespace(x).sqrt(dot(x, x, axis, keepdims=True))
 
 
 def _lvlh_axes(r_eci, v_eci, axis):
@@ -51,7 +49,7 @@ def _to_lvlh(axes, vec_eci, axis):
 
 def _to_eci(axes, vec_lvlh, axis):
     x_hat, y_hat, z_hat = axes
-    c_x, c_y, c_z = (jnp.expand_dims(c, axis) for c in split(vec_lvlh, axis))
+    c_x, c_y, c_z = (array_namespace(c).expand_dims(c, axis) for c in split(vec_lvlh, axis))
     return c_x * x_hat + c_y * y_hat + c_z * z_hat
 
 
@@ -71,7 +69,8 @@ def lvlh_dcm(r_eci, v_eci, axis=-1):
         ``axis=-1``: shape (..., 3, 3), ``C[..., i, j]``; ``axis=0``: shape (3, 3, ...),
         ``C[i, j, ...]``. Row ``i`` is LVLH axis ``i`` (x, y, z) in ECI components.
     """
-    return jnp.stack(_lvlh_axes(r_eci, v_eci, axis), axis=axis - 1 if axis < 0 else axis)
+    axes = _lvlh_axes(r_eci, v_eci, axis)
+    return array_namespace(*axes).stack(axes, axis=axis - 1 if axis < 0 else axis)
 
 
 def eci_to_lvlh(r_chief_eci, v_chief_eci, r_eci, v_eci, axis=-1):

@@ -7,24 +7,34 @@ product, and ``q_bi`` takes body-frame components to inertial-frame components,
 ``q_j* ⊗ q_i`` (the paper's H(q_j * q_i) is its vector part).
 
 Every function takes arrays of shape ``(..., 4)`` (and ``(..., 3)`` for vectors) and works on
-NumPy and JAX arrays alike. The algebra functions also take ``axis``, the position of the
+NumPy and JAX arrays alike: NumPy inputs are computed by NumPy and give NumPy arrays (the
+analysis of a finished run: JAX would dispatch, and compile once per shape, every operation),
+any JAX array or tracer makes it JAX (the compiled loop, gradients). The algebra functions also take ``axis``, the position of the
 component axis: the compiled loop keeps its arrays component-major, ``(4, n)`` and ``(3, n)``
 (``axis=0``), so that each component is a contiguous row and XLA vectorises the arithmetic over
 spacecraft (measured twice as fast as ``(n, 4)`` on the CPU; see docs/architecture.md).
 """
 
 
+import jax
 import jax.numpy as jnp
+import numpy as np
+
+
+def array_namespace(*arrays):
+    """``jax.numpy`` when any of ``arrays`` is a JAX array or tracer, else ``numpy``."""
+    return jnp if any(isinstance(a, jax.Array) for a in arrays) else np
 
 
 def split(x, axis=-1):
     """Components of ``x`` along ``axis`` as a tuple of arrays (views, no copy)."""
-    return tuple(jnp.moveaxis(x, axis, 0)) if axis not in (0, -x.ndim) else tuple(x)
+    x = x if isinstance(x, jax.Array) else np.asarray(x)
+    return tuple(array_namespace(x).moveaxis(x, axis, 0)) if axis not in (0, -x.ndim) else tuple(x)
 
 
 def join(parts, axis=-1):
     """Inverse of :func:`split`: stack components along ``axis``."""
-    return jnp.stack(parts, axis=axis)
+    return array_namespace(*parts).stack(parts, axis=axis)
 
 
 def cross(a, b, axis=-1):
@@ -36,7 +46,8 @@ def cross(a, b, axis=-1):
 
 def dot(a, b, axis=-1, keepdims=False):
     """Sum of the product of ``a`` and ``b`` along ``axis``."""
-    return jnp.sum(a * b, axis=axis, keepdims=keepdims)
+    xp = array_namespace(a, b)
+    return xp.sum(a * b, axis=axis, keepdims=keepdims)
 
 
 def quat_multiply(p, q, axis=-1):
@@ -78,15 +89,17 @@ def quat_conjugate(q, axis=-1):
 
 def quat_normalize(q, axis=-1):
     """Scale to unit norm, shape (..., 4). A zero quaternion gives NaN: validate input first."""
+    xp = array_namespace(q)
     # Written per component rather than as a reduction, so that XLA fuses it with the step
     # that produced q (one kernel instead of a reduction and a broadcast).
     q0, q1, q2, q3 = split(q, axis)
-    return q / jnp.sqrt(jnp.expand_dims(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3, axis))
+    return q / xp.sqrt(xp.expand_dims(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3, axis))
 
 
 def quat_positive(q, axis=-1):
     """Flip sign to the ``q0 ≥ 0`` hemisphere (same rotation, short way round), shape (..., 4)."""
-    return jnp.where(jnp.expand_dims(split(q, axis)[0], axis) < 0.0, -q, q)
+    xp = array_namespace(q)
+    return xp.where(xp.expand_dims(split(q, axis)[0], axis) < 0.0, -q, q)
 
 
 def quat_error(q_i, q_j, axis=-1):
@@ -121,7 +134,8 @@ def quat_rotate(q, v, axis=-1):
     jax.Array, shape (..., 3)
         The same vector's components in frame a.
     """
-    s = jnp.expand_dims(split(q, axis)[0], axis)
+    xp = array_namespace(q, v)
+    s = xp.expand_dims(split(q, axis)[0], axis)
     u = quat_vector(q, axis)
     t = 2.0 * cross(u, v, axis)
     return v + s * t + cross(u, t, axis)
@@ -145,13 +159,14 @@ def quat_to_dcm(q):
     -------
     jax.Array, shape (..., 3, 3)
     """
+    xp = array_namespace(q)
     q0, q1, q2, q3 = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     rows = [
         [1 - 2 * (q2 * q2 + q3 * q3), 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
         [2 * (q1 * q2 + q0 * q3), 1 - 2 * (q1 * q1 + q3 * q3), 2 * (q2 * q3 - q0 * q1)],
         [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), 1 - 2 * (q1 * q1 + q2 * q2)],
     ]
-    return jnp.stack([jnp.stack(r, axis=-1) for r in rows], axis=-2)
+    return xp.stack([xp.stack(r, axis=-1) for r in rows], axis=-2)
 
 
 def dcm_to_quat(c):
@@ -163,31 +178,32 @@ def dcm_to_quat(c):
     is always well conditioned. All four candidates are computed and the best one selected,
     which keeps the function branch-free (traceable, vectorised).
     """
-    tr = jnp.trace(c, axis1=-2, axis2=-1)
+    xp = array_namespace(c)
+    tr = xp.trace(c, axis1=-2, axis2=-1)
     d0, d1, d2 = c[..., 0, 0], c[..., 1, 1], c[..., 2, 2]
-    cand = jnp.stack(
+    cand = xp.stack(
         [
-            jnp.stack(
+            xp.stack(
                 [1 + tr, c[..., 2, 1] - c[..., 1, 2], c[..., 0, 2] - c[..., 2, 0], c[..., 1, 0] - c[..., 0, 1]],
                 axis=-1,
             ),
-            jnp.stack(
+            xp.stack(
                 [c[..., 2, 1] - c[..., 1, 2], 1 + 2 * d0 - tr, c[..., 0, 1] + c[..., 1, 0], c[..., 0, 2] + c[..., 2, 0]],
                 axis=-1,
             ),
-            jnp.stack(
+            xp.stack(
                 [c[..., 0, 2] - c[..., 2, 0], c[..., 0, 1] + c[..., 1, 0], 1 + 2 * d1 - tr, c[..., 1, 2] + c[..., 2, 1]],
                 axis=-1,
             ),
-            jnp.stack(
+            xp.stack(
                 [c[..., 1, 0] - c[..., 0, 1], c[..., 0, 2] + c[..., 2, 0], c[..., 1, 2] + c[..., 2, 1], 1 + 2 * d2 - tr],
                 axis=-1,
             ),
         ],
         axis=-2,
     )
-    best = jnp.argmax(jnp.stack([tr, d0, d1, d2], axis=-1), axis=-1)
-    q = jnp.take_along_axis(cand, best[..., None, None], axis=-2)[..., 0, :]
+    best = xp.argmax(xp.stack([tr, d0, d1, d2], axis=-1), axis=-1)
+    q = xp.take_along_axis(cand, best[..., None, None], axis=-2)[..., 0, :]
     return quat_positive(quat_normalize(q))
 
 
@@ -198,7 +214,8 @@ def quat_angle(q):
     -----
     ``2 atan2(|vec q|, |q0|)`` is accurate near 0 and π, unlike ``2 acos(q0)``.
     """
-    return 2.0 * jnp.arctan2(jnp.linalg.norm(q[..., 1:], axis=-1), jnp.abs(q[..., 0]))
+    xp = array_namespace(q)
+    return 2.0 * xp.arctan2(xp.linalg.norm(q[..., 1:], axis=-1), xp.abs(q[..., 0]))
 
 
 def quat_from_axis_angle(axis, angle_rad):
@@ -214,8 +231,9 @@ def quat_from_axis_angle(axis, angle_rad):
     -------
     jax.Array, shape (..., 4)
     """
-    half = 0.5 * jnp.asarray(angle_rad)[..., None]
-    return jnp.concatenate([jnp.cos(half), jnp.sin(half) * axis], axis=-1)
+    xp = array_namespace(axis, angle_rad)
+    half = 0.5 * xp.asarray(angle_rad)[..., None]
+    return xp.concatenate([xp.cos(half), xp.sin(half) * axis], axis=-1)
 
 
 def quat_exp_rate(omega_b, t_s):
@@ -233,14 +251,15 @@ def quat_exp_rate(omega_b, t_s):
     jax.Array, shape (..., 4)
         ``q(t) = q(0) ⊗ quat_exp_rate(ω, t)`` solves ``q̇ = ½ q ⊗ [0, ω]`` exactly.
     """
-    t = jnp.asarray(t_s)[..., None]
-    rate2 = jnp.sum(omega_b * omega_b, axis=-1, keepdims=True)
+    xp = array_namespace(omega_b, t_s)
+    t = xp.asarray(t_s)[..., None]
+    rate2 = xp.sum(omega_b * omega_b, axis=-1, keepdims=True)
     # |ω| with a finite derivative at ω = 0 (the plain norm's is NaN there).
-    rate = jnp.where(rate2 > 0.0, jnp.sqrt(jnp.where(rate2 > 0.0, rate2, 1.0)), 0.0)
+    rate = xp.where(rate2 > 0.0, xp.sqrt(xp.where(rate2 > 0.0, rate2, 1.0)), 0.0)
     half = 0.5 * rate * t
     # sin(½|ω|t)/|ω| written with sinc so that ω = 0 is exact and differentiable.
-    sin_over_rate = 0.5 * t * jnp.sinc(half / jnp.pi)
-    return jnp.concatenate([jnp.cos(half), sin_over_rate * omega_b], axis=-1)
+    sin_over_rate = 0.5 * t * xp.sinc(half / xp.pi)
+    return xp.concatenate([xp.cos(half), sin_over_rate * omega_b], axis=-1)
 
 
 def quat_kinematics(q, omega_b, axis=-1):

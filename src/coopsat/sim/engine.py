@@ -228,12 +228,15 @@ def simulate(system, n_records, record_interval_s, *, native=None, **options):
     follows ``COOPSAT_NATIVE`` (default ``auto``: the kernels where the process's check passes,
     else XLA with one :class:`~coopsat.sim.native.capability.NativeFallbackWarning`). The
     check is made once per process (:mod:`coopsat.sim.native.capability`), so every run of a
-    process, alone or in a batch, takes the same path. The other arguments are
+    process, alone or in a batch, takes the same path; until it is made, a run too small to pay
+    for the probe takes the XLA path. The other arguments are
     :func:`simulate_as_built`'s.
     """
     from coopsat.sim.native.capability import use_native
 
-    if system.structure.native and not use_native(native):
+    s = system.structure
+    sc_steps = n_records * s.periods_per_record * s.ticks_per_period * s.substeps * s.n_spacecraft  # of one run
+    if s.native and not use_native(native, sc_steps):
         system = replace(system, structure=replace(system.structure, native=False))
     return simulate_as_built(system, n_records, record_interval_s, **options)
 

@@ -67,3 +67,25 @@ def test_links_reproduce_the_adjacency(layout):
 def test_auto_layout_avoids_padding_a_hub():
     assert topology.links_from_adjacency(topology.ring_adjacency(100)).src.ndim == 2
     assert topology.links_from_adjacency(topology.star_adjacency(100)).src.ndim == 1
+
+
+def test_spanning_tree_roots_match_networkx_on_random_digraphs():
+    """The roots (scipy's strong components) against networkx's condensation, on 200 random
+    sparse digraphs, with and without a spanning tree."""
+    import networkx as nx
+
+    rng = np.random.default_rng(7)
+    found = 0
+    for _ in range(200):
+        n = int(rng.integers(1, 9))
+        a = (rng.random((n, n)) < rng.uniform(0.05, 0.5)) * rng.uniform(0.5, 2.0, (n, n))
+        np.fill_diagonal(a, 0.0)
+        g = nx.DiGraph()
+        g.add_nodes_from(range(n))
+        g.add_edges_from((j, i) for i, j in zip(*np.nonzero(a)))  # information flows j -> i
+        cond = nx.condensation(g)
+        sources = [c for c in cond.nodes if cond.in_degree(c) == 0]
+        expected = sorted(cond.nodes[sources[0]]["members"]) if len(sources) == 1 else []
+        assert topology.spanning_tree_roots(a) == expected
+        found += bool(expected)
+    assert 20 < found < 180  # both cases were exercised

@@ -250,3 +250,68 @@ def test_cli_native_required_but_unavailable_exits_2(monkeypatch, tmp_path, caps
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("coopsat: error: native kernels required (COOPSAT_NATIVE=1 or native=True)")
     assert not (tmp_path / "r").exists()
+
+
+# --- the verdict kept between processes, and runs too small to pay for the probe -------------
+
+
+@pytest.fixture
+def verdict_dir(tmp_path, monkeypatch):
+    from coopsat.core import runtime
+
+    monkeypatch.setattr(runtime, "persistent_cache_dir", lambda kind: tmp_path / f"coopsat-{kind}")
+    monkeypatch.delenv(capability.ENV, raising=False)
+    return tmp_path / "coopsat-native"
+
+
+def test_a_probed_verdict_is_kept_and_a_new_process_does_not_probe_again(verdict_dir, monkeypatch):
+    monkeypatch.setattr(capability, "probe_problem", lambda: None)
+    assert capability.use_native() is True
+    (path,) = verdict_dir.glob("*.json")
+    assert path.name == f"{capability.install_key()}.json"
+    capability.reset()  # a new process
+    monkeypatch.setattr(capability, "probe_problem", lambda: pytest.fail("the kept verdict is enough"))
+    assert capability.use_native(sc_steps=1) is True
+
+
+def test_a_kept_failure_falls_back_with_its_reason(verdict_dir, monkeypatch):
+    monkeypatch.setattr(capability, "probe_problem", lambda: "the probe run (x) differs from the XLA path in 'q'")
+    with pytest.warns(capability.NativeFallbackWarning, match="differs from the XLA path"):
+        assert capability.use_native() is False
+    capability.reset()
+    monkeypatch.setattr(capability, "probe_problem", lambda: pytest.fail("the kept verdict is enough"))
+    with pytest.warns(capability.NativeFallbackWarning, match="differs from the XLA path"):
+        assert capability.use_native() is False
+
+
+def test_a_small_run_with_no_verdict_takes_xla_and_decides_nothing(verdict_dir, monkeypatch):
+    monkeypatch.setattr(capability, "probe_problem", lambda: pytest.fail("too small to probe"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no notice: nothing failed
+        assert capability.use_native(sc_steps=capability.PROBE_WORTH_SC_STEPS - 1) is False
+    assert not capability._verdict and not verdict_dir.exists()
+    monkeypatch.setattr(capability, "probe_problem", lambda: None)
+    assert capability.use_native(sc_steps=capability.PROBE_WORTH_SC_STEPS) is True  # a large run decides
+    assert capability.use_native(sc_steps=1) is True  # and the process keeps the verdict
+
+
+def test_required_kernels_are_probed_whatever_the_run(verdict_dir, monkeypatch):
+    probed = []
+    monkeypatch.setattr(capability, "probe_problem", lambda: probed.append(1))
+    assert capability.use_native(True, sc_steps=1) is True and probed == [1]
+
+
+@pytest.mark.parametrize("text", ["", "{", '{"native": true}', "[1, 2]"])
+def test_a_damaged_verdict_file_is_probed_again(verdict_dir, monkeypatch, text):
+    verdict_dir.mkdir(parents=True)
+    (verdict_dir / f"{capability.install_key()}.json").write_text(text)
+    probed = []
+    monkeypatch.setattr(capability, "probe_problem", lambda: probed.append(1))
+    assert capability.use_native() is True and probed == [1]
+
+
+def test_the_key_changes_with_a_version(monkeypatch):
+    key = capability.install_key()
+    real = capability.metadata.version
+    monkeypatch.setattr(capability.metadata, "version", lambda name: "9.9" if name == "numba" else real(name))
+    assert capability.install_key() != key

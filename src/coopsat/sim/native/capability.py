@@ -8,11 +8,20 @@ trusted only where that reading was tested. At the first run that could use them
    the environment variable :data:`ENV` (``0``, ``1`` or ``auto``, the default);
 2. the platform and architecture (:data:`PLATFORMS`: 64-bit Linux; elsewhere they were never
    run);
-3. numba, llvmlite and ``jax.ffi`` import, and jax and jaxlib lie in :data:`TESTED_JAX`, the
-   range the test suite runs on (CI's newest and lowest-versions jobs);
+3. jax and jaxlib lie in :data:`TESTED_JAX`, the range the test suite runs on (CI's newest
+   and lowest-versions jobs), and numba, llvmlite and ``jax.ffi`` import;
 4. a probe: a small synthetic formation (:mod:`coopsat.sim.synthetic`) that goes through each
    native target — the rigid-body tick, the pulsed (piecewise) tick, the consensus law, and
    XLA's thread pool — run once with the kernels and once without, the two compared.
+
+The probe compiles six small loops: about 7 s with JAX's persistent cache warm and 25 s with
+it empty (the 2-core machine), more than a short run takes on the XLA path. So its verdict is
+kept on disk where the process keeps JAX's persistent compilation cache (the command line
+always; a library user who turned that cache on), keyed by everything it depends on
+(:func:`install_key`), and a process with no verdict yet runs the probe only for a run of at
+least :data:`PROBE_WORTH_SC_STEPS`: a smaller one takes the XLA path and leaves the verdict
+open (the plant kernels give XLA's bits; the law kernel, used from 128 spacecraft, rounds
+differently by about 1e-16).
 
 ``auto`` takes the XLA path when a step fails, with one :class:`NativeFallbackWarning` per
 process naming the reason (the command line prints it as one line); ``1`` makes the failure an
@@ -21,12 +30,15 @@ kernels. The verdict is kept for the process, so every run of a process — alon
 a campaign's replay — takes the same path and gives the same bits.
 """
 
+import hashlib
+import json
 import os
 import platform
 import sys
 import threading
 import warnings
 from importlib import metadata
+from pathlib import Path
 from typing import NamedTuple
 
 ENV = "COOPSAT_NATIVE"
@@ -46,6 +58,12 @@ next minor may change the FFI: raise the bound once tested."""
 PROBE_RTOL = 1e-12
 """Largest difference between the probe's runs, relative to each output's scale. The plant
 kernels are bit-identical to XLA; the law kernel rounds differently (≈ 1e-16 relative)."""
+
+
+PROBE_WORTH_SC_STEPS = 2e7
+"""Smallest run, in spacecraft × integration steps, for which a process with no verdict runs
+the probe: about 10 s of the XLA loop at the consensus benchmark's 2e6 spacecraft-steps/s,
+the probe's own cost with empty caches."""
 
 
 class NativeFallbackWarning(UserWarning):
@@ -149,23 +167,78 @@ def probe_problem():
     return None
 
 
+def install_key():
+    """What the probe's verdict depends on, hashed: the versions of Python, coopsat, jax,
+    jaxlib, numba, llvmlite and numpy, the machine, and the engine's source (every module of
+    ``coopsat.sim``, kernels included), so that any change re-runs the probe."""
+    import coopsat
+
+    sim = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    for path in sorted(sim.rglob("*.py")):
+        digest.update(path.relative_to(sim).as_posix().encode() + b"\0" + path.read_bytes())
+    versions = {name: metadata.version(name) for name in ("jax", "jaxlib", "numba", "llvmlite", "numpy")}
+    text = json.dumps([sys.version, platform.machine(), coopsat.__version__, versions, digest.hexdigest()])
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def verdict_path():
+    """Where this install's verdict is kept: beside JAX's persistent compilation cache, or None
+    when the process has none."""
+    from coopsat.core.runtime import persistent_cache_dir
+
+    folder = persistent_cache_dir("native")
+    return folder / f"{install_key()}.json" if folder is not None else None
+
+
+def _load_verdict(path):
+    """The verdict kept at ``path``, or None (none, unreadable or not one)."""
+    try:
+        data = json.loads(path.read_text())
+        return Verdict(bool(data["native"]), data["reason"] if data["reason"] is None else str(data["reason"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _keep_verdict(path, verdict):
+    """Write ``verdict`` to ``path`` atomically; a cache that cannot be written is skipped."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(verdict._asdict()))
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
 _lock = threading.Lock()
 _verdict = []
 _warned = []
 
 
-def _checked():
-    """The process's verdict: the first failing check's reason, or None (cached)."""
+def _checked(worth_probing=True):
+    """The process's verdict: the first failing check's reason, or None (cached); None, with
+    nothing decided, when only the probe could tell and the run is not ``worth_probing``."""
     with _lock:
         if not _verdict:
-            reason = platform_problem() or import_problem() or version_problem() or probe_problem()
-            _verdict.append(Verdict(reason is None, reason))
+            reason = platform_problem() or version_problem()
+            path = verdict_path() if reason is None else None
+            kept = _load_verdict(path) if path is not None else None
+            if kept is None and reason is None:
+                if not worth_probing:
+                    return None
+                reason = import_problem() or probe_problem()  # numba's import alone is 0.5 s
+                if path is not None:
+                    _keep_verdict(path, Verdict(reason is None, reason))
+            _verdict.append(kept or Verdict(reason is None, reason))
         return _verdict[0]
 
 
-def use_native(native=None):
+def use_native(native=None, sc_steps=None):
     """Whether this process runs the native kernels for a run that asks ``native`` (True,
-    False, or None: :data:`ENV`).
+    False, or None: :data:`ENV`). ``sc_steps``: the run's size (spacecraft × integration
+    steps, of one run of a batch); in ``auto`` mode a process with no verdict yet runs the
+    probe only when it is at least :data:`PROBE_WORTH_SC_STEPS` (or unknown).
 
     Raises
     ------
@@ -175,7 +248,9 @@ def use_native(native=None):
     mode = requested(native)
     if mode == "0":
         return False
-    verdict = _checked()
+    verdict = _checked(mode == "1" or sc_steps is None or sc_steps >= PROBE_WORTH_SC_STEPS)
+    if verdict is None:
+        return False
     if verdict.native:
         return True
     if mode == "1":

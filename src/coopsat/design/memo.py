@@ -59,15 +59,16 @@ def _install_digest():
     return digest.hexdigest()
 
 
-def _disk_path(fn, key):
-    """File of ``fn``'s result for ``key`` in the persistent cache, or None when there is none."""
+def _disk_path(name, key):
+    """File of the result named ``name`` for ``key`` in the persistent cache, or None when there
+    is none."""
     from coopsat.core.runtime import persistent_cache_dir
 
     folder = persistent_cache_dir("design")
     if folder is None:
         return None
     digest = hashlib.sha256(pickle.dumps((_install_digest(), key), protocol=5)).hexdigest()[:40]
-    return folder / f"{fn.__module__}.{fn.__qualname__}-{digest}.pickle"
+    return folder / f"{name}-{digest}.pickle"
 
 
 def _load(path):
@@ -91,15 +92,16 @@ def _keep(path, result):
         pass
 
 
-def _solved(fn, key, args, kwargs):
-    """``fn(*args, **kwargs)``, from the persistent cache when it holds it (and put there when
-    it does not)."""
-    path = _disk_path(fn, key)
+def kept(name, key, compute):
+    """``compute()``, from the persistent cache when it holds the result named ``name`` for
+    ``key`` (any picklable value that differs whenever the result would), and put there when it
+    does not. Without a persistent cache, ``compute()``."""
+    path = _disk_path(name, key)
     if path is not None:
         found, result = _load(path)
         if found:
             return result
-    result = fn(*args, **kwargs)
+    result = compute()
     if path is not None:
         _keep(path, result)
     return result
@@ -117,7 +119,7 @@ def by_value(fn):
     def memoized(*args, **kwargs):
         key = (_key(args), _key(sorted(kwargs.items())))
         if key not in cache:
-            result = _solved(fn, key, args, kwargs)
+            result = kept(f"{fn.__module__}.{fn.__qualname__}", key, lambda: fn(*args, **kwargs))
             if len(cache) >= MAX_ENTRIES:
                 cache.pop(next(iter(cache)))
             cache[key] = result

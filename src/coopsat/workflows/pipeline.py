@@ -127,7 +127,34 @@ def prepare(scenario, check_published=True):
 
 
 def metric_names(built):
-    """Names of the metrics a run of ``built`` will report (from a stand-in two-sample record)."""
+    """Names of the metrics a run of ``built`` will report (from a stand-in two-sample record).
+
+    Kept in the persistent cache by the resolved scenario (:func:`coopsat.design.memo.kept`):
+    the stand-in record is an xarray Dataset, and xarray with pandas is a second of imports
+    that ``coopsat validate`` would otherwise pay for nothing else.
+    """
+    from coopsat.design.memo import kept
+
+    parts = _plugin_distributions()
+    if parts is None:
+        return _metric_names(built)
+    return set(kept("metric_names", (resolved_toml(built.scenario), parts), lambda: sorted(_metric_names(built))))
+
+
+def _plugin_distributions():
+    """(name, version) of every distribution with a registered plug-in (part of the key of
+    :func:`metric_names`), or None when a plug-in was registered by a module outside any
+    distribution: a script's parts cannot be keyed, so their names are worked out each time."""
+    from importlib.metadata import version
+
+    from coopsat.plugins import ROLES, plugins
+
+    dists = {p.origin.distribution for role in ROLES for p in plugins(role).values()}
+    return None if None in dists else sorted((d, version(d)) for d in dists)
+
+
+def _metric_names(built):
+    """:func:`metric_names` worked out: the metrics of a two-sample record of zeros."""
     from coopsat.sim.engine import RunOutput, output_shapes, output_specs
     from coopsat.sim.recorder import to_dataset
 
@@ -137,7 +164,8 @@ def metric_names(built):
         if spec.dims == ("q_component",):
             samples[k][..., 0] = 1.0  # unit quaternions, so that attitude metrics are defined
     ds = paper_series(to_dataset(RunOutput(np.array([0.0, 1.0]), samples, 0.0, 0.0), built.names, {}, specs), built)
-    metrics, _ = analyse(built, ds, compare=False)
+    with np.errstate(all="ignore"):  # only the names count: the stand-in's zeros may divide 0 by 0
+        metrics, _ = analyse(built, ds, compare=False)
     return set(metrics)
 
 

@@ -132,12 +132,20 @@ def _cmd_margin(args):
 
 
 def _cmd_design_delay_gain(args):
-    from coopsat.workflows.delay_gain import analyse_lines, design_gain_scenario
+    from coopsat.workflows.delay_gain import analyse_lines, design_gain_scenario, progress_text
+    from coopsat.workflows.stage_lines import StageLines
 
     if args.analyse:
         _print(analyse_lines(args.scenario, args.set))
-    else:
-        _print(design_gain_scenario(args.scenario, args.set, h=args.h, out=args.out))
+        return 0
+    stages = None if args.quiet else StageLines(sys.stderr, progress_text, prefix="design: ")
+    try:
+        result = design_gain_scenario(args.scenario, args.set, h=args.h, out=args.out,
+                                      max_evaluations=args.max_evaluations, progress=stages)
+    finally:
+        if stages is not None:
+            stages.close()  # a terminal's progress line ends before the result or the error
+    _print(result)
     return 0
 
 
@@ -305,12 +313,21 @@ def _add_design(sub):
     design_p = sub.add_parser("design", help="design-time synthesis")
     design_sub = design_p.add_subparsers(dest="what", required=True)
     dg = design_sub.add_parser(
-        "delay-gain", help="gain certified by a delay-dependent LMI for time-varying delay up to h (leader-follower)"
+        "delay-gain", help="gain certified by a delay-dependent LMI for time-varying delay up to h (leader-follower)",
+        description="Search the gain K = [k_angle, k_rate] whose certified decay rate at the delay bound h is largest "
+                    "(a minute), and write it as a scenario that extends the one given. Progress goes to stderr (a "
+                    "line per stage and per tenth of the search); the result to stdout, its last line 'wrote FILE'.",
     )
     dg.add_argument("scenario")
     dg.add_argument("--h", type=float, help="delay bound to certify, s (default: the network's largest single-hop delay)")
     dg.add_argument("--analyse", action="store_true", help="no synthesis: the largest h the LMI certifies for the scenario's K")
-    dg.add_argument("--out", help="file that receives the designed gain (default <scenario>-delay-gain.toml)")
+    dg.add_argument("--out", metavar="FILE.toml",
+                    help="the scenario file written, the only one (default <scenario>-delay-gain.toml in the current "
+                         "folder); the last line printed is 'wrote FILE'")
+    dg.add_argument("--max-evaluations", type=int, default=100, metavar="N",
+                    help="gains the search evaluates at most, about a second each (default 100; it stops sooner "
+                         "when it converges)")
+    dg.add_argument("--quiet", "-q", action="store_true", help="no progress lines on stderr")
     _set_option(dg)
     dg.set_defaults(func=_cmd_design_delay_gain)
 

@@ -15,6 +15,7 @@ the bisections of :mod:`coopsat.design.delay_bounds`.
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -61,6 +62,28 @@ class DelayGainDesign:
     n_evaluations: int
 
 
+class BestGain(NamedTuple):
+    """The best certified gain of a running search, as a progress callback sees it.
+
+    Attributes
+    ----------
+    value : float
+        Maximising the delay bound: h*(K), s. At a given h: the decay rate α*(K), 1/s.
+    gain : ndarray, shape k0.shape
+        The gain K.
+    """
+
+    value: float
+    gain: np.ndarray
+
+
+#: ``progress(stage, done, total, best)``: the search's stage (str), gains evaluated so far
+#: over all starts and at most (int; the search may stop sooner), and the best certified gain
+#: so far (:class:`BestGain`, None until one is certified). Observes only: the result is the
+#: same with or without it.
+ProgressCallback = Callable[[str, int, int, BestGain | None], None]
+
+
 class _GainScorer:
     """The search's objective: the score of a gain (lower is better), and the best gain seen.
 
@@ -68,12 +91,14 @@ class _GainScorer:
     −α*(K) ≤ 0 and one that is not scores ``(h − h*(K))/h > 0``, so that the search climbs
     toward certified gains; the largest h*(K) of those is kept for the error message. Scores
     are cached by the gain rounded to 12 decimals; one :class:`DelayProgram` serves every gain
-    whose system has the same structure.
+    whose system has the same structure. ``progress`` (a :data:`ProgressCallback` or None)
+    hears of each gain newly scored, under the ``stage`` and ``total`` the search sets.
     """
 
-    def __init__(self, system_of_gain, shape, h, alpha, tol, solvers, rtol):
+    def __init__(self, system_of_gain, shape, h, alpha, tol, solvers, rtol, progress=None):
         self.system_of_gain, self.shape, self.h, self.alpha = system_of_gain, shape, h, alpha
         self.tol, self.solvers, self.rtol = tol, solvers, rtol
+        self.progress, self.stage, self.total = progress, "gain search", 0
         self.programs, self.cache = {}, {}
         self.best_score, self.best_gain, self.best_bound = math.inf, None, None
         self.largest_h, self.largest_h_gain = 0.0, None
@@ -96,7 +121,15 @@ class _GainScorer:
         if certified and score < self.best_score:
             self.best_score, self.best_gain, self.best_bound = score, gain, bound
         self.cache[key] = score
+        self.report()
         return score
+
+    def report(self):
+        """Tell ``progress`` (if any) the stage, the gains scored, and the best so far."""
+        if self.progress is not None:
+            # A copy: whatever the callback does with it, the search's own gain stays as it was.
+            best = None if self.best_bound is None else BestGain(self.best_bound.value, self.best_gain.copy())
+            self.progress(self.stage, self.n_evaluations, self.total, best)
 
     def _score(self, program, a0, mats, gain):
         """``(score, certified, bound)`` of one gain (class docstring)."""
@@ -141,12 +174,17 @@ def _search_box(k0, bounds, starts):
 
 def _nelder_mead(scorer, start_points, box, max_evaluations, tol):
     """Bounded Nelder–Mead from each start in turn, the first simplex a tenth of the box wide,
-    until ``max_evaluations`` gains have been scored over all starts."""
+    until ``max_evaluations`` gains have been scored over all starts; each start is a stage
+    of the scorer's progress reports."""
     width = box[:, 1] - box[:, 0]
-    for s in start_points:
+    scorer.total = max_evaluations
+    for n, s in enumerate(start_points, start=1):
         remaining = max_evaluations - scorer.n_evaluations
         if remaining <= 0:
             break
+        if len(start_points) > 1:
+            scorer.stage = f"gain search from start {n}/{len(start_points)}"
+        scorer.report()
         x0 = s.ravel()
         simplex = [x0]
         for i in range(x0.size):
@@ -173,6 +211,7 @@ def design_gain(
     tol=1e-3,
     solvers=DEFAULT_SOLVERS,
     rtol=RTOL,
+    progress=None,
 ):
     """Static gain maximising the certified delay bound, or the decay rate at a given bound.
 
@@ -198,6 +237,9 @@ def design_gain(
         Bisection tolerance of each evaluation (s, or 1/s).
     solvers, rtol
         See :meth:`~coopsat.design.lmi.LMIProgram.solve`.
+    progress : ProgressCallback, optional
+        ``progress(stage, done, total, best)`` as each start begins and after each gain newly
+        scored (``done`` never decreasing, ``total`` = ``max_evaluations``); it only observes.
 
     Returns
     -------
@@ -221,7 +263,7 @@ def design_gain(
     k0, box, start_points = _search_box(k0, bounds, starts)
     if h is not None and not (math.isfinite(h) and h > 0.0):
         raise ValueError(f"h must be None or finite and > 0, got {h}")
-    scorer = _GainScorer(system_of_gain, k0.shape, h, nonnegative("alpha", alpha), tol, solvers, rtol)
+    scorer = _GainScorer(system_of_gain, k0.shape, h, nonnegative("alpha", alpha), tol, solvers, rtol, progress)
     _nelder_mead(scorer, start_points, box, max_evaluations, tol)
     if scorer.best_gain is None:
         raise ValueError(scorer.failure())
@@ -250,6 +292,7 @@ def design_delay_gain(
     starts: Sequence[ArrayLike] = (),
     max_evaluations: int = 100,
     tol: float = 1e-3,
+    progress: ProgressCallback | None = None,
 ) -> DelayGainDesign:
     """Static gain with the largest certified delay bound, or decay rate at a bound (``coopsat.design``).
 
@@ -273,6 +316,9 @@ def design_delay_gain(
         Gains evaluated at most.
     tol : float
         Bisection tolerance of each evaluation, s or 1/s.
+    progress : callable, optional
+        ``progress(stage, done, total, best)`` as the search goes (:data:`ProgressCallback`);
+        it only observes.
 
     Returns
     -------
@@ -291,5 +337,6 @@ def design_delay_gain(
     with ``h`` keyword-only.
     """
     return design_gain(
-        system_of_gain, h, k0, bounds, alpha=alpha, starts=starts, max_evaluations=max_evaluations, tol=tol
+        system_of_gain, h, k0, bounds, alpha=alpha, starts=starts, max_evaluations=max_evaluations, tol=tol,
+        progress=progress,
     )

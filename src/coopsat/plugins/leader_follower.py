@@ -173,10 +173,11 @@ def largest_certified_h(table, ctx, gain=None):
     return max_certified_delay(*error_system(table, ctx, gain))
 
 
-def design(table, ctx, h_s):
+def design(table, ctx, h_s, max_evaluations=100, progress=None):
     """Synthesis: the gain K the LMI certifies for every time-varying single-hop delay up to
     ``h_s`` with the largest decay rate (derivative-free search over K, one convex problem per
-    candidate), checked against the exact constant-delay margin of the design.
+    candidate, at most ``max_evaluations`` gains), checked against the exact constant-delay
+    margin of the design. ``progress``: see :func:`coopsat.design.delay_gain.design_gain`.
 
     Returns
     -------
@@ -196,6 +197,7 @@ def design(table, ctx, h_s):
     try:
         result = design_gain(
             lambda k: error_system(table, ctx, np.ravel(k)), h_s, np.asarray([table.gain], dtype=float), GAIN_BOUNDS,
+            max_evaluations=max_evaluations, progress=progress,
         )
     except ValueError as err:
         raise DesignError(f"design delay-gain: {err}") from None

@@ -32,3 +32,34 @@ def _run_toml(directory, text, overrides=()):
 def run_toml():
     """``run_toml(directory, text, overrides=()) -> (built, dataset)``: a scenario from text."""
     return _run_toml
+
+
+# --- peak memory per worker (issue 26: a suite that fits beside a user's other programs) ----
+
+PEAK_RSS_LIMIT_MB = 2560
+"""Peak resident memory allowed to one test process (README: ≤ 2.5 GB per worker)."""
+
+
+def _peak_rss_mb():
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: kB
+
+
+def pytest_sessionfinish(session):
+    if hasattr(session.config, "workeroutput"):  # a pytest-xdist worker reports to the controller
+        session.config.workeroutput["peak_rss_mb"] = _peak_rss_mb()
+
+
+@pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook: absent with -p no:xdist
+def pytest_testnodedown(node, error):
+    node.config._coopsat_peaks = getattr(node.config, "_coopsat_peaks", {})
+    node.config._coopsat_peaks[node.gateway.id] = node.workeroutput.get("peak_rss_mb", float("nan"))
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    peaks = getattr(config, "_coopsat_peaks", None) or {"main": _peak_rss_mb()}
+    text = ", ".join(f"{worker} {mb:.0f} MB" for worker, mb in sorted(peaks.items()))
+    over = [worker for worker, mb in peaks.items() if mb > PEAK_RSS_LIMIT_MB]
+    terminalreporter.write_line(f"peak resident memory per test process: {text}"
+                                + (f"  (over {PEAK_RSS_LIMIT_MB} MB: {', '.join(over)})" if over else ""))

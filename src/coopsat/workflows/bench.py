@@ -72,8 +72,11 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
     runtime.enable()  # float64 before the cases' arrays are made (they are built here, not by a scenario)
     import jax
 
+    from coopsat.sim.native.capability import use_native
     from coopsat.sim.native.pool import PARALLEL_MIN
 
+    if native:
+        use_native()  # decided before the first row: the small rows would otherwise take XLA until a large one probes
     ceiling, why = load_ceiling()
     print(f"coopsat engine benchmark: JAX {jax.__version__} on {jax.devices()[0].platform}, float64, RK4, "
           f"{'native kernels where they apply' if native else 'XLA only (--no-native)'}")

@@ -27,8 +27,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.linalg import null_space
-from scipy.optimize import brentq
 
 from coopsat.design.riccati import discretize
 from coopsat.design.memo import by_value
@@ -146,6 +144,8 @@ def _reduced(a, b, g, quotient):
     if not quotient:
         return a, b, g, np.eye(a.shape[0])
     n = a.shape[0] // 6
+    from scipy.linalg import null_space  # here: a build whose result is kept on disk needs no scipy
+
     w = null_space(consensus_subspace(n).T)  # orthonormal complement, (6n, 6n-6)
     return w.T @ a @ w, w.T @ b, g @ w, w
 
@@ -158,6 +158,8 @@ def max_stable_period(a, b, g, quotient, t_min_s=1e-6, t_max_s=1e3, n_grid=64):
     ``t_max_s``, 0 if already unstable at ``t_min_s`` (gains too high for any practical period,
     or a continuous-time loop that is itself unstable).
     """
+    from scipy.optimize import brentq  # 0.25 s of import: only when the result is not kept on disk
+
     ar, br, gr, _ = _reduced(a, b, g, quotient)
 
     def rho_minus_one(t):

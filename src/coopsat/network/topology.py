@@ -227,6 +227,38 @@ def information_digraph(a):
     return g
 
 
+def _reached(start, successors):
+    """Nodes reachable from ``start`` (itself included) along ``successors`` (list of lists)."""
+    seen, stack = {start}, [start]
+    while stack:
+        for nxt in successors[stack.pop()]:
+            if nxt not in seen:
+                seen.add(nxt)
+                stack.append(nxt)
+    return seen
+
+
+def _last_finished(successors):
+    """The node a depth-first search over every node finishes last: it lies in a source
+    component of the condensation (Kosaraju's first pass), iteratively."""
+    n, seen, last = len(successors), set(), 0
+    for root in range(n):
+        if root in seen:
+            continue
+        seen.add(root)
+        stack = [(root, iter(successors[root]))]
+        while stack:
+            node, children = stack[-1]
+            child = next((c for c in children if c not in seen), None)
+            if child is None:
+                stack.pop()
+                last = node
+            else:
+                seen.add(child)
+                stack.append((child, iter(successors[child])))
+    return last
+
+
 def spanning_tree_roots(a):
     """Nodes from which information reaches every node (roots of a directed spanning tree).
 
@@ -239,20 +271,24 @@ def spanning_tree_roots(a):
     Notes
     -----
     A digraph has a spanning tree iff its condensation has exactly one source component;
-    the roots are that component's nodes (Ren & Beard, 2005). Strong components from scipy's
-    csgraph: every scenario build asks, and networkx would add 0.3 s of import to each run.
+    the roots are that component's nodes (Ren & Beard, 2005). The node a depth-first search
+    finishes last lies in a source component: if it reaches every node, the roots are the
+    nodes that reach it, else there is none. Linear time, and no graph library: every
+    scenario build asks, and networkx or scipy's csgraph cost 0.2–0.3 s of import a run.
     """
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    a = np.asarray(a, dtype=float)
-    _, label = connected_components(csr_matrix(a > 0), directed=True, connection="strong")
-    dst, src = np.nonzero(a)
-    entered = set(label[dst[label[src] != label[dst]]].tolist())
-    sources = sorted(set(label.tolist()) - entered)
-    if len(sources) != 1:
+    a = np.asarray(a)
+    n = a.shape[0]
+    dst, src = np.nonzero(a)  # information flows src -> dst
+    forward, backward = [[] for _ in range(n)], [[] for _ in range(n)]
+    for i, j in zip(src.tolist(), dst.tolist()):
+        forward[i].append(j)
+        backward[j].append(i)
+    if n == 0:
         return []
-    return np.flatnonzero(label == sources[0]).tolist()
+    top = _last_finished(forward)
+    if len(_reached(top, forward)) < n:
+        return []
+    return sorted(_reached(top, backward))
 
 
 def describe_components(a, names=None):

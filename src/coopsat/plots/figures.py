@@ -255,8 +255,8 @@ _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 def decade_label(value, _pos=None):
     """Tick label of a log axis: ``10⁻³`` at a power of ten, nothing elsewhere. Plain Unicode:
     matplotlib's own log labels are mathtext, whose parser alone took 0.5 s of a run's figures."""
-    exponent = np.log10(value) if value > 0 else np.nan
-    if not abs(exponent - round(exponent)) < 1e-9:
+    exponent = np.log10(value) if value > 0 else 0.5
+    if abs(exponent - round(exponent)) > 1e-9:
         return ""
     return "10" + f"{int(round(exponent)):d}".translate(_SUPERSCRIPT)
 

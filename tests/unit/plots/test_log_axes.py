@@ -24,8 +24,8 @@ def _drawn_labels(y):
 
 def test_a_span_of_decades_is_labelled_at_the_decades():
     labels = _drawn_labels(np.geomspace(3e-9, 40.0, 50))
-    assert {"10⁻⁸", "10⁻⁴", "10⁰", "10¹"} <= set(labels)
-    assert all(label.startswith("10") and "$" not in label for label in labels)
+    decades = {decade_label(10.0**k) for k in range(-9, 3)}
+    assert len(labels) >= 3 and set(labels) <= decades  # every few decades, as the locator spaces them
 
 
 def test_a_narrow_span_keeps_matplotlibs_labels():

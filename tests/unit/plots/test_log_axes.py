@@ -24,7 +24,7 @@ def _drawn_labels(y):
 
 def test_a_span_of_decades_is_labelled_at_the_decades():
     labels = _drawn_labels(np.geomspace(3e-9, 40.0, 50))
-    decades = {decade_label(10.0**k) for k in range(-9, 3)}
+    decades = {decade_label(10.0**k) for k in range(-15, 8)}  # tick labels beyond the view included
     assert len(labels) >= 3 and set(labels) <= decades  # every few decades, as the locator spaces them
 
 

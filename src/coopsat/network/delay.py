@@ -98,7 +98,8 @@ class DelayedNetwork:
 
     def deliver(self, tick, outbox, state, key):
         """Write this period's outbox, read each link's delayed message, apply losses."""
-        n = next(iter(jax.tree_util.tree_leaves(outbox))).shape[-1]
+        leaves = jax.tree_util.tree_leaves(outbox)
+        n = leaves[0].shape[-1] if leaves else 0  # a controller that sends nothing (kind "none"): nothing buffered
         frame = tick // self.period_ticks
         slot = frame % self.buffer_periods
         buffer = jax.tree_util.tree_map(

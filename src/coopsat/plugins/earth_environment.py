@@ -12,7 +12,7 @@ from pydantic import Field, model_validator
 
 from coopsat.astro.constants import AU_M, MU_EARTH_M3_S2, SOLAR_PRESSURE_1AU_N_M2
 from coopsat.plugins import DesignError, Plugin, register
-from coopsat.plugins.tables import Bounded3, Record, Table
+from coopsat.plugins.tables import Bounded3, Record, Table, vector_norm
 
 _FACET = Record(float, float, float, float, float, float, float)
 
@@ -35,11 +35,11 @@ class Facets(Table):
         for k, (nx, ny, nz, area, *centre) in enumerate(self.facets):
             if not np.isfinite([nx, ny, nz, area, *centre]).all():
                 raise ValueError(f"facets[{k}]: every number must be finite")
-            if np.linalg.norm([nx, ny, nz]) == 0.0:
+            if vector_norm([nx, ny, nz]) == 0.0:
                 raise ValueError(f"facets[{k}]: the normal [nx, ny, nz] must not be zero")
             if not 0.0 < area <= 1e4:
                 raise ValueError(f"facets[{k}]: area_m2 must be in (0, 1e4] m², got {area:g}")
-            if np.linalg.norm(centre) > 1e3:
+            if vector_norm(centre) > 1e3:
                 raise ValueError(f"facets[{k}]: centre of pressure more than 1 km from the centre of mass")
         return self
 
@@ -114,7 +114,8 @@ def _facet_arrays(table):
     import numpy as np
 
     f = np.asarray(table.facets, dtype=float)
-    normals = f[:, :3] / np.linalg.norm(f[:, :3], axis=1, keepdims=True)
+    scaled = f[:, :3] / np.abs(f[:, :3]).max(axis=1, keepdims=True)  # no square overflows (1e308) or underflows
+    normals = scaled / np.linalg.norm(scaled, axis=1, keepdims=True)
     return normals.T, f[:, 3], f[:, 4:].T
 
 

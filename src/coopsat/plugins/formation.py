@@ -93,12 +93,13 @@ def _geometry(table, ctx):
     axes = PLANES[table.plane]
     r = np.asarray([s.r_eci_m for s in sc], dtype=float)
     p0 = (r - r.mean(axis=0))[:, axes]
-    target = np.asarray(table.target_m, dtype=float) if table.target_m else np.zeros((0, len(axes)))
-    if target.shape != p0.shape:
+    rows = [len(row) for row in table.target_m]  # checked before NumPy, which cannot make an array of ragged rows
+    if rows != [len(axes)] * len(p0):
         raise DesignError(
             f"controller.target_m: needs one [{', '.join('xyz'[a] for a in axes)}] per spacecraft "
-            f"({p0.shape[0]}×{p0.shape[1]}), got {target.shape[0]}×{target.shape[1] if target.ndim == 2 else 0}"
+            f"({p0.shape[0]}×{p0.shape[1]}), got {len(rows)} rows of lengths {rows}"
         )
+    target = np.asarray(table.target_m, dtype=float)
     return p0, target, masses.pop(), axes
 
 

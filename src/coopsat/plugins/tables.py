@@ -4,13 +4,71 @@ Every table forbids unknown keys, NaN and infinity, and is frozen; vectors and q
 checked by the annotated types below (one definition each).
 """
 
+import math
+import sys
 from typing import Annotated
 
 import numpy as np
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic_core import core_schema
 
 QUAT_NORM_TOL = 0.05
 """Scenario quaternions are normalised at load; a norm further than this from 1 is a typo."""
+
+
+def float_errors_raise():
+    """Context in which NumPy's overflow, invalid value and division by zero raise
+    :class:`FloatingPointError` instead of printing a RuntimeWarning."""
+    return np.errstate(over="raise", invalid="raise", divide="raise")
+
+
+def _refuse_float_trouble(value, handler):
+    # Every table's checks run with float trouble raising: extreme input is refused naming its
+    # table (the innermost), not computed into a RuntimeWarning line and an "inf" in the message.
+    with float_errors_raise():
+        try:
+            return handler(value)
+        except ArithmeticError as err:
+            raise ValueError(arithmetic_message(err, value)) from None
+
+
+EXTREME = 1e100
+"""Magnitude beyond which (or below whose inverse, but not 0) a number is named as the likely
+cause of a floating-point failure: no physical value in SI units comes near it."""
+
+
+def extreme_values(data, prefix=""):
+    """``name = value`` of every number in ``data`` (a table, or its dict, nested) whose
+    magnitude is above :data:`EXTREME` or, not zero, below its inverse."""
+    if isinstance(data, BaseModel):
+        data = data.model_dump()
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, (list, tuple)) else ()
+    found = []
+    for key, value in items:
+        name = f"{prefix}[{key}]" if isinstance(key, int) else f"{prefix}.{key}" if prefix else str(key)
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            if value != 0 and not 1 / EXTREME <= abs(value) <= EXTREME:
+                found.append(f"{name} = {value:.3g}")
+        else:
+            found += extreme_values(value, name)
+    return found
+
+
+def arithmetic_message(err, data=None):
+    """What a floating-point failure (FloatingPointError, OverflowError, ZeroDivisionError)
+    means for the input, in words, naming the extreme numbers of ``data`` (the table where it
+    happened) that likely caused it: ``overflows float64 arithmetic (overflow encountered in
+    multiply): position_scale_m = 1e-300 is too extreme to compute with``."""
+    text = str(err)
+    if isinstance(err, OverflowError) or "overflow" in text:
+        cause = "overflows float64 arithmetic"
+    elif isinstance(err, ZeroDivisionError) or "divide by zero" in text:
+        cause = "divides by zero in float64 arithmetic"
+    else:
+        cause = "gives an undefined result (such as inf - inf) in float64 arithmetic"
+    extreme = extreme_values(data)[:3] if data is not None else []
+    culprit = f": {', '.join(extreme)} {'is' if len(extreme) == 1 else 'are'} too extreme to compute with" if extreme else "; give values of physical size"
+    return f"{cause} ({text}){culprit}"
 
 
 class Table(BaseModel):
@@ -24,6 +82,12 @@ class Table(BaseModel):
     # NaN and infinity are never valid input (an unsaturated actuator omits torque_max_nm).
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
+    @classmethod
+    def __get_pydantic_core_schema__(cls, source, handler):
+        # Outermost around each table's validation (its model validators included, which a
+        # ``model_validator(mode="wrap")`` on this base would not enclose).
+        return core_schema.no_info_wrap_validator_function(_refuse_float_trouble, handler(source))
+
 
 def _list_as_tuple(v):
     # TOML has arrays, not tuples: accept an array where a fixed-length record is expected
@@ -36,13 +100,31 @@ def Record(*types):  # noqa: N802 (a type constructor, used like tuple[...])
     return Annotated[tuple[types], BeforeValidator(_list_as_tuple)]
 
 
+FLOAT_MAX = sys.float_info.max
+"""Largest float64 (about 1.8e308): a norm beyond it is reported as overflowing."""
+
+
+def vector_norm(v):
+    """Euclidean norm of finite numbers, scaled by the largest so that no square overflows
+    (``np.linalg.norm`` squares first: [1e308, 0, 0] would give inf and a RuntimeWarning).
+
+    Returns inf, without a warning, only when the norm itself is above :data:`FLOAT_MAX`.
+    """
+    a = np.abs(np.asarray(v, dtype=float)).ravel()
+    big = float(a.max()) if a.size else 0.0
+    if big == 0.0 or not math.isfinite(big):
+        return big
+    return big * math.sqrt(float(np.sum((a / big) ** 2)))  # Python floats: inf on overflow, no warning
+
+
 def _check_quaternion(q):
-    norm = float(np.linalg.norm(q))
-    if not np.all(np.isfinite(q)) or norm == 0.0:
+    if not np.all(np.isfinite(q)) or vector_norm(q) == 0.0:
         raise ValueError("must be a non-zero, finite quaternion [q0, q1, q2, q3] (scalar first)")
+    norm = vector_norm(q)
     if abs(norm - 1.0) > QUAT_NORM_TOL:
+        shown = f"{norm:.4g}" if math.isfinite(norm) else f"above {FLOAT_MAX:.3g} (overflows float64)"
         raise ValueError(
-            f"norm is {norm:.4g}; expected a unit quaternion (scalar first; within {QUAT_NORM_TOL:g} of 1, "
+            f"norm is {shown}; expected a unit quaternion (scalar first; within {QUAT_NORM_TOL:g} of 1, "
             "rounded values are normalised)"
         )
     return q
@@ -76,7 +158,9 @@ def bounded_norm(limit, unit):
     """Pydantic validator: the vector's Euclidean norm is at most ``limit``."""
 
     def check(v):
-        norm = float(np.linalg.norm(v))
+        norm = vector_norm(v)
+        if math.isinf(norm):
+            raise ValueError(f"norm overflows float64 (above {FLOAT_MAX:.3g} {unit}); at most {limit:g} {unit} is physical")
         if norm > limit:
             raise ValueError(f"norm {norm:.3g} {unit} is above {limit:g} {unit}: not a physical value")
         return v

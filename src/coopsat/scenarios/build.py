@@ -16,6 +16,7 @@ from coopsat.astro.kepler import elements_to_rv
 from coopsat.network.graphs import graph_adjacency
 from coopsat.network.topology import GraphError
 from coopsat.plugins import BuildContext, DesignCheck, DesignError, plugin_for
+from coopsat.plugins.tables import arithmetic_message, float_errors_raise
 from coopsat.scenarios.load import ScenarioError
 from coopsat.scenarios.schema import Scenario, whole_ratio
 
@@ -121,16 +122,27 @@ def _translational_states(spacecraft, orbit):
 
     if orbit is None:
         return [(np.zeros(3), np.zeros(3)) for _ in spacecraft]
-    absolute = {sc.name: _absolute_state(sc, orbit) for sc in spacecraft if sc.relative is None}
+    absolute = {sc.name: _named_arithmetic(f"spacecraft[{k}]", sc, _absolute_state, sc, orbit)
+                for k, sc in enumerate(spacecraft) if sc.relative is None}
     out = []
-    for sc in spacecraft:
+    for k, sc in enumerate(spacecraft):
         if sc.relative is None:
             out.append(absolute[sc.name])
             continue
         r_ref, v_ref = absolute[sc.relative.to]
-        r, v = lvlh_to_eci(r_ref, v_ref, np.asarray(sc.relative.rho_lvlh_m), np.asarray(sc.relative.rho_dot_lvlh_m_s))
+        rho, rho_dot = np.asarray(sc.relative.rho_lvlh_m), np.asarray(sc.relative.rho_dot_lvlh_m_s)
+        r, v = _named_arithmetic(f"spacecraft[{k}].relative", sc.relative, lvlh_to_eci, r_ref, v_ref, rho, rho_dot)
         out.append((np.asarray(r), np.asarray(v)))
     return out
+
+
+def _named_arithmetic(place, table, fn, *args):
+    """``fn(*args)``; a floating-point failure in it (under :func:`build`'s raising error
+    state) is a :class:`ScenarioError` naming ``place`` and the extreme numbers of ``table``."""
+    try:
+        return fn(*args)
+    except ArithmeticError as err:
+        raise ScenarioError(f"{place}: {arithmetic_message(err, table)}") from None
 
 
 def scenario_tables(scenario):
@@ -202,9 +214,12 @@ def build(scenario):
     from coopsat.core import runtime
 
     runtime.enable()  # float64 before any design-time JAX array (coopsat.core.runtime: the documented change)
-    ctx, switch_times, rv = _context(scenario)
-    parts, used, checks = _build_parts(scenario, ctx)
-    system = _system(scenario, ctx, rv, parts)
+    # Overflow, invalid values and division by zero raise (one line naming the place where it is
+    # known, the scenario otherwise) rather than print a RuntimeWarning and compute on.
+    with float_errors_raise():
+        ctx, switch_times, rv = _named_arithmetic("scenario", scenario, _context, scenario)
+        parts, used, checks = _build_parts(scenario, ctx)
+        system = _named_arithmetic("scenario", scenario, _system, scenario, ctx, rv, parts)
     notes = [c.note for c in checks.values() if not c.ok]
     for note in notes:
         warnings.warn(note, DesignWarning, stacklevel=2)
@@ -253,7 +268,7 @@ def _build_parts(scenario, ctx):
     for role, place, table in scenario_tables(scenario):
         plugin = plugin_for(role, table)
         try:
-            parts[role].append(plugin.build(table, ctx))
+            parts[role].append(_named_arithmetic(place, table, plugin.build, table, ctx))
             if role == "actuator":  # the controller is built first
                 _check_command(parts["controller"][0], parts[role][-1], place)
             for check in plugin.checks:

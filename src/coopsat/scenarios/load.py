@@ -6,7 +6,9 @@ No code runs from a scenario file: it is parsed with :mod:`tomllib` and validate
 """
 
 import copy
+import math
 import re
+import sys
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -14,6 +16,7 @@ from pathlib import Path
 import tomli_w
 from pydantic import ValidationError
 
+from coopsat.scenarios import hints
 from coopsat.scenarios.schema import Scenario
 
 
@@ -33,7 +36,8 @@ def bundled_names():
 def bundled_text(name):
     """TOML text of a bundled scenario."""
     if name not in bundled_names():
-        raise ScenarioError(f"no bundled scenario named '{clip_echo(name)}' (coopsat list shows them)")
+        hint = hints.did_you_mean(name, bundled_names())
+        raise ScenarioError(f"no bundled scenario named '{clip_echo(name)}'{hint} (coopsat list shows them)")
     return resources.files(BUNDLED_PACKAGE).joinpath(f"{name}.toml").read_text(encoding="utf-8")
 
 
@@ -220,7 +224,7 @@ def _merge_defaults(raw):
     try:
         SpacecraftDefaults.model_validate(defaults)
     except ValidationError as err:
-        raise ScenarioError(format_validation_error(err, prefix="spacecraft_defaults")) from None
+        raise ScenarioError(format_validation_error(err, prefix="spacecraft_defaults", model=SpacecraftDefaults)) from None
     sc_list = raw.get("spacecraft", [])
     if not isinstance(sc_list, list):
         raise ScenarioError("spacecraft: must be an array of tables [[spacecraft]]")
@@ -252,14 +256,23 @@ def clip_path(path, limit=4 * ECHO_MAX):
     return text if len(text) <= limit else f"…{text[-limit:]}"
 
 
+_NUMBER_ERRORS = {"finite_number", "float_type", "int_type", "int_from_float"}
+"""pydantic's errors of a value where a number belongs."""
+
 _TOML_TYPE = {bool: "a boolean", str: "a string", int: "an integer", float: "a number", list: "an array", dict: "a table"}
 
 
-def format_validation_error(err, prefix=""):
+ROOT_KEYS = ("extends", "spacecraft_defaults")
+"""Top-level keys read before validation (so not fields of the schema's Scenario)."""
+
+
+def format_validation_error(err, prefix="", model=None):
     """One line naming each failing field: ``controller.alpha: Input should be greater than 0``.
 
     A wrong type says what was found (``controller.alpha: Input should be a valid number, got a
-    boolean (true)``); keys and values from the file are cut to :data:`ECHO_MAX` characters.
+    boolean (true)``); an unknown key, kind or choice the closest valid names at its place
+    (``controller.alpah: unknown field; did you mean `alpha`?``, from ``model``, default the
+    scenario's schema); keys and values from the file are cut to :data:`ECHO_MAX` characters.
     """
     from coopsat.plugins import all_kinds
 
@@ -270,24 +283,50 @@ def format_validation_error(err, prefix=""):
     wrong_form = {"list_type", "model_type", "dict_type", "model_attributes_type"}
     if any(e["type"] not in wrong_form for e in errors):
         errors = [e for e in errors if e["type"] not in wrong_form]
-    msgs = []
-    for e in errors:
-        parts = [prefix] if prefix else []
-        for p in e["loc"]:
-            if isinstance(p, int):
-                parts[-1:] = [f"{parts[-1]}[{p}]"] if parts else [f"[{p}]"]
-            elif p not in tags and "[" not in p:  # "tagged-union[…]", "list[…]": pydantic's own labels
-                parts.append(clip_echo(p))
-        where = ".".join(parts) or "scenario"
-        text = clip_echo(e["msg"].removeprefix("Value error, "), 4 * ECHO_MAX)
-        if e["type"] == "extra_forbidden":
-            text = "unknown field (misspelt?)"
-        elif e["type"].endswith("_type") and type(e.get("input")) in _TOML_TYPE:
-            shown = str(e["input"]).lower() if isinstance(e["input"], bool) else repr(e["input"])
-            text += f", got {_TOML_TYPE[type(e['input'])]} ({clip_echo(shown, 40)})"
-        msgs.append(f"{where}: {text}")
+    # An unknown key first: a misspelt one is also why its field is "required" (and so elsewhere).
+    errors.sort(key=lambda e: e["type"] != "extra_forbidden")
+    msgs = [f"{_where(e['loc'], prefix, tags)}: {_error_text(e, model)}" for e in errors]
     extra = f" (+{len(msgs) - 3} more)" if len(msgs) > 3 else ""
     return "; ".join(msgs[:3]) + extra
+
+
+def _where(loc, prefix, tags):
+    """``spacecraft[0].q_bi``: a pydantic error location as the file's path (kinds and
+    pydantic's own labels left out); ``scenario`` for the whole."""
+    parts = [prefix] if prefix else []
+    for p in loc:
+        if isinstance(p, int):
+            parts[-1:] = [f"{parts[-1]}[{p}]"] if parts else [f"[{p}]"]
+        elif p not in tags and "[" not in p:  # "tagged-union[…]", "list[…]": pydantic's own labels
+            parts.append(clip_echo(p))
+    return ".".join(parts) or "scenario"
+
+
+def _error_text(e, model):
+    """The message of one pydantic error, in the file's terms (see :func:`format_validation_error`)."""
+    text = clip_echo(e["msg"].removeprefix("Value error, "), 4 * ECHO_MAX)
+    given = e.get("input")
+    if e["type"] == "extra_forbidden":
+        valid = hints.fields_at(Scenario if model is None else model, e["loc"][:-1])
+        return hints.unknown_field(e["loc"][-1], valid + list(ROOT_KEYS if model is None and len(e["loc"]) == 1 else ()))
+    if e["type"] == "union_tag_invalid":
+        expected = e["ctx"]["expected_tags"]
+        hint = hints.did_you_mean(e["ctx"]["tag"], hints.quoted_names(expected))
+        return f"unknown kind '{clip_echo(e['ctx']['tag'])}'{hint} (kinds: {expected})"
+    if e["type"] == "union_tag_not_found":
+        kinds = hints.kinds_at(Scenario if model is None else model, e["loc"])
+        return f"needs a kind (one of: {', '.join(kinds)})" if kinds else "needs a kind"
+    if e["type"] == "literal_error" and isinstance(given, str):
+        return text + hints.did_you_mean(given, hints.quoted_names(e["ctx"]["expected"]))
+    if e["type"] == "float_type" and isinstance(given, int) and not isinstance(given, bool) and abs(given) > sys.float_info.max:
+        return f"{text}, got an integer that overflows float64 (at most {sys.float_info.max:.3g} in magnitude)"
+    if e["type"] in _NUMBER_ERRORS and isinstance(given, float) and math.isinf(given):
+        # TOML reads a literal beyond the float range (1e400) as inf: say so.
+        return f"{text}, got {given} (a value beyond {sys.float_info.max:.3g} in magnitude overflows float64)"
+    if e["type"].endswith("_type") and type(given) in _TOML_TYPE:
+        shown = str(given).lower() if isinstance(given, bool) else repr(given)
+        text += f", got {_TOML_TYPE[type(given)]} ({clip_echo(shown, 40)})"
+    return text
 
 
 def load_scenario(name_or_path, overrides=()):

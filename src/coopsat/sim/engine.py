@@ -38,7 +38,7 @@ __all__ = ["MAX_CHUNK", "NonFiniteStateError", "RunOutput", "bucket_runs", "outp
 
 
 class NonFiniteStateError(RuntimeError):
-    """The state became NaN or infinite during a run."""
+    """The state became NaN or infinite, or diverged beyond :data:`DIVERGED`, during a run."""
 
 
 def output_specs(system):
@@ -101,21 +101,28 @@ MAX_CHUNK = 4096
 """Most record intervals per compiled call: bounds the padding of the last chunk (memory)."""
 
 
+DIVERGED = 1e100
+"""Largest magnitude of a recorded state entry of a run still going, SI: no spacecraft's
+state comes near it, and the analysis squares states (1e200 still fits a float64)."""
+
+
 def _check_finite(samples, t_s, offset, batched, names=None):
-    """Raise :class:`NonFiniteStateError` naming the first sample, spacecraft and field."""
+    """Raise :class:`NonFiniteStateError` naming the first sample, spacecraft and field that
+    is non-finite or diverged beyond :data:`DIVERGED`."""
     for name, (_, label) in STATE_QUANTITIES.items():
         if name not in samples:
             continue
         a = np.asarray(samples[name])
-        bad = ~np.isfinite(a)
+        bad = ~(np.abs(a) <= DIVERGED)  # NaN compares False: caught with the rest
         if bad.any():
             idx = np.argwhere(bad)[0]  # ([run,] record, component, spacecraft)
             k = idx[1] if batched else idx[0]
             sc = idx[-1]
             run = f"run {idx[0]}, " if batched else ""
             who = names[sc] if names is not None else f"spacecraft index {sc}"
+            what = "became non-finite" if not np.isfinite(a[tuple(idx)]) else f"diverged past {DIVERGED:g} (on its way to non-finite)"
             raise NonFiniteStateError(
-                f"state became non-finite: {run}{label} of {who} at t = {t_s[offset + k]:g} s "
+                f"state {what}: {run}{label} of {who} at t = {t_s[offset + k]:g} s "
                 "(check gains, control period and step size)"
             )
 
@@ -286,7 +293,8 @@ def simulate_as_built(system, n_records, record_interval_s, *, batched=False, pr
     Raises
     ------
     NonFiniteStateError
-        When the state becomes NaN or infinite; the run stops at the chunk where it happened.
+        When the state becomes NaN or infinite or diverges beyond :data:`DIVERGED`; the run
+        stops at the chunk where it happened.
     """
     runtime.enable()
     if chunk is None:

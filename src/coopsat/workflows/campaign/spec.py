@@ -137,7 +137,7 @@ def load_campaign(path):
     try:
         campaign = Campaign.model_validate(raw)
     except ValidationError as err:
-        raise CampaignError(format_validation_error(err)) from None
+        raise CampaignError(format_validation_error(err, model=Campaign)) from None
     ref = campaign.scenario
     if ref.endswith(".toml"):
         ref = str((path.parent / ref).resolve())

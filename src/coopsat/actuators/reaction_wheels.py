@@ -1,8 +1,11 @@
 """Reaction wheels as an in-loop part (SPEC §5): momentum exchange with the body.
 
 The controller commands the torque ``u`` it wants on the body (``torque_b``); each wheel's
-motor torque ``τ`` is the minimum-norm solution of ``−G τ = u`` within the torque and speed
-limits (:func:`~coopsat.actuators.wheels.wheel_motor_torque`), held over the control period.
+motor torque ``τ`` is the minimum-norm solution of ``−G τ = u`` within the torque limit
+(:func:`~coopsat.actuators.wheels.wheel_motor_torque`), held over the control period, and cut
+by the drive where it would take the wheel past its rated speed by the end of the period
+(:func:`~coopsat.actuators.wheels.speed_limited_torque`; the output
+``wheel_speed_limited_time`` counts how long).
 The part acts through the channel ``wheel_torque_b`` with level ``G τ`` (the rate of the
 wheels' momentum in body axes): the plant integrates ``h_wheels_b`` and the body feels
 ``−G τ`` (``I ω̇ + ω × (I ω + h_w) = τ_ext − ḣ_w``), so the formation's inertial angular
@@ -14,14 +17,16 @@ positive when the wheel turns right-handed about ``g_k``): the motor torque chan
 that, ``ḣ_k = τ_k`` (``τ_k > 0`` spins wheel k up along ``g_k``). The body inertia of the run
 is then the spacecraft's *without* the wheels' spin-axis inertia (Basilisk's ``IHubPntBc_B``
 minus ``Σ I_k g_k g_kᵀ``; checked against Basilisk's reaction wheels,
-tests/reference/test_basilisk_wheels.py). The speed limit applies to ``Ω_k``.
+tests/reference/test_basilisk_wheels.py). The speed limit applies to ``Ω_k``: the drive
+measures the wheel's speed against the body, and the record's ``wheel_speed`` is that speed.
 
 Speed-control error (SPEC §5: 5 rpm, 3σ): each wheel's speed loop leaves an error ``δΩ_k`` on
 top of the speed the commanded torque would give, a first-order Gauss–Markov process with
 stationary standard deviation σ and correlation time τ_c (``δΩ ← φ δΩ + σ √(1 − φ²) ν``,
 ``φ = exp(−T/τ_c)`` per control period T, drawn from the run's key). The wheel's momentum then
 changes by ``I_k (δΩ_new − δΩ_old)`` more than commanded over the period: an extra motor torque
-the body feels as a disturbance the attitude law must reject.
+the body feels as a disturbance the attitude law must reject. The speed limit bounds the sum:
+a speed loop never drives its wheel past the rated speed, error or not.
 
 State: per-wheel momentum (m, n), advanced exactly by ``τ·T`` each period (with the speed
 error: ``{"h": …, "speed_error": δΩ (m, n)}``). It starts at
@@ -37,7 +42,7 @@ import jax.numpy as jnp
 
 from coopsat.core.parts import OutputSpec, part, per_spacecraft_normal
 from coopsat.actuators.pulses import IMPULSE_OUTPUTS
-from coopsat.actuators.wheels import wheel_motor_torque
+from coopsat.actuators.wheels import speed_limited_torque, wheel_motor_torque
 
 
 class WheelPulse(NamedTuple):
@@ -52,11 +57,14 @@ class WheelPulse(NamedTuple):
         The control period (the torque is held over it).
     tau_nm : (m, n)
         Motor torque of each wheel, N·m.
+    limited : (m, n)
+        1.0 where the drive cut the wheel's torque at its speed limit this period, else 0.0.
     """
 
     level_nm: jnp.ndarray
     t_off_s: jnp.ndarray
     tau_nm: jnp.ndarray
+    limited: jnp.ndarray
 
 
 def wheel_labels(m):
@@ -118,33 +126,38 @@ class ReactionWheels:
         return self._momentum(state) - self.inertia_kgm2 * jnp.einsum("im,in->mn", self.spin_axes_b, x.omega_b)
 
     def plan(self, command, x, state, period_s, key, t=0.0):
-        tau, h_dot_b = wheel_motor_torque(
-            command, self._relative_momentum(x, state), self.spin_axes_b, self.spin_axes_pinv,
-            self.torque_max_nm, self.h_max_nms,
-        )
-        h = self._momentum(state) + tau * period_s
+        tau = wheel_motor_torque(command, self.spin_axes_pinv, self.torque_max_nm)
+        h = self._momentum(state)
+        h_new = h + tau * period_s
         if self.speed_noise:
             err = state["speed_error"]
             new_err = self.speed_phi * err + self.speed_sigma_rad_s * jnp.sqrt(1.0 - self.speed_phi**2) * (
                 per_spacecraft_normal(key, err.shape[0], err.shape[1]))
             tau = tau + self.inertia_kgm2 * (new_err - err) / period_s
-            h_dot_b = self.spin_axes_b @ tau
-            h = h + self.inertia_kgm2 * (new_err - err)
-            return WheelPulse(h_dot_b, jnp.full_like(h_dot_b, period_s), tau), {"h": h, "speed_error": new_err}
-        return WheelPulse(h_dot_b, jnp.full_like(h_dot_b, period_s), tau), h
+            h_new = h_new + self.inertia_kgm2 * (new_err - err)
+        # The drive limits the speed the wheel actually reaches, speed-loop error included.
+        limited_tau, limited = speed_limited_torque(tau, self._relative_momentum(x, state), self.h_max_nms, period_s)
+        # Where nothing is cut, h_new keeps the unlimited arithmetic (a run that never reaches
+        # the limit is bit for bit what it was before the drive limited speed).
+        h_new = jnp.where(limited, h + limited_tau * period_s, h_new)
+        h_dot_b = self.spin_axes_b @ limited_tau
+        pulse = WheelPulse(h_dot_b, jnp.full_like(h_dot_b, period_s), limited_tau, limited.astype(h.dtype))
+        return pulse, ({"h": h_new, "speed_error": new_err} if self.speed_noise else h_new)
 
     def record(self, x, state):
         """Each wheel's speed relative to the body at the sample, rad/s."""
         return {"wheel_speed": self._relative_momentum(x, state) / self.inertia_kgm2}
 
     def account(self, pulse):
-        """The body's angular impulse (it feels ``−G τ``), and each wheel's motor impulse."""
+        """The body's angular impulse (it feels ``−G τ``), each wheel's motor impulse, and how
+        long the drive held each wheel at its speed limit."""
         body = -pulse.level_nm * pulse.t_off_s
         wheel = pulse.tau_nm * pulse.t_off_s[:1]
         return {
             "angular_impulse": body,
             "impulse": jnp.abs(body),
             "wheel_angular_impulse": wheel,
+            "wheel_speed_limited_time": pulse.limited * pulse.t_off_s[:1],
         }
 
     def output_specs(self):
@@ -159,5 +172,11 @@ class ReactionWheels:
             ),
             "wheel_speed": OutputSpec(
                 ("wheel",), "rad/s", "", "speed of each wheel relative to the body at the sample", coords=wheels
+            ),
+            "wheel_speed_limited_time": OutputSpec(
+                ("wheel",), "s", "",
+                "cumulative time during which the drive cut each wheel's torque at its rated speed, from t = 0 to "
+                "the sample",
+                coords=wheels,
             ),
         }

@@ -1,6 +1,8 @@
 """Figures of the Earth-observation runs (SPEC §5): attitude error against time (paper Figs. 5, 8),
 control torque (Figs. 6–7), the pair's relative error and image-plane mismatch (Figs. 8b, 9),
-wheel speeds and magnetorquer dipoles, and the target's elevation.
+wheel speeds and magnetorquer dipoles, and the target's elevation. Where a wheel drive held a
+wheel at its rated speed (cutting the torque that would have taken it further) the error and
+wheel figures shade the interval, and the wheel speeds have their limits as dashed lines.
 
 Pure functions from a dataset and its built scenario to :class:`matplotlib.figure.Figure`
 (object-oriented API, no pyplot); the error series come from
@@ -23,6 +25,24 @@ def _stare_lines(ax, ds, k):
         ax.axvline(ds["time"].values[np.argmax(staring)], color="0.5", lw=0.8, ls="--")
 
 
+def limited_spans(ds, k):
+    """Record intervals ``(t_start, t_end)`` (s) in which spacecraft ``k``'s drive held some
+    wheel at its rated speed: where ``wheel_speed_limited_time`` grew, consecutive intervals
+    merged; empty without wheels."""
+    if "wheel_speed_limited_time" not in ds:
+        return []
+    t = ds["time"].values
+    grew = np.diff(ds["wheel_speed_limited_time"].values[:, k].sum(axis=-1)) > 0.0
+    # Edges of the runs of True: +1 where one starts, -1 after one ends.
+    edges = np.diff(np.concatenate([[0], grew.astype(int), [0]]))
+    return [(t[a], t[b]) for a, b in zip(np.flatnonzero(edges > 0), np.flatnonzero(edges < 0))]
+
+
+def _shade_limited(ax, ds, k):
+    for start, end in limited_spans(ds, k):
+        ax.axvspan(start, end, color="tab:red", alpha=0.15, lw=0)
+
+
 def error_figure(ds, built):
     """Per spacecraft: the attitude and pointing errors (deg, log scale) against time."""
     t = ds["time"].values
@@ -32,11 +52,12 @@ def error_figure(ds, built):
         ax.semilogy(t, np.degrees(ds["attitude_error"].values[:, k]), lw=0.8, label="attitude error")
         ax.semilogy(t, np.degrees(ds["pointing_error"].values[:, k]), lw=0.8, label="pointing error (+z to target)")
         _stare_lines(ax, ds, k)
+        _shade_limited(ax, ds, k)
         ax.set_ylabel(f"{name} (deg)")
         ax.grid(alpha=0.3, which="both")
     axes[0].legend(fontsize="small")
     axes[-1].set_xlabel("time (s)")
-    fig.suptitle(_title(ds, "truth attitude error (dashed: staring starts)"))
+    fig.suptitle(_title(ds, "truth attitude error\n(dashed: staring starts; shaded: a wheel held at its rated speed)"))
     return fig
 
 
@@ -75,6 +96,12 @@ def relative_figure(ds, built):
     return fig
 
 
+def _wheel_limits_rpm(built):
+    """The distinct rated speeds of the run's reaction wheels, rpm, (k,)."""
+    wheels = next(a for a in built.scenario.actuator_list if a.kind == "reaction-wheels")
+    return np.unique(np.asarray(wheels.max_speed_rpm, dtype=float))
+
+
 def actuator_figure(ds, built):
     """Wheel speeds (rpm) and, with magnetorquers, dipole commands (A·m²) per spacecraft."""
     t = ds["time"].values
@@ -85,6 +112,10 @@ def actuator_figure(ds, built):
         if have_wheels:
             for w, label in enumerate(ds["wheel"].values):
                 axes[k, 0].plot(t, ds["wheel_speed"].values[:, k, w] * 60.0 / (2.0 * np.pi), lw=0.8, label=str(label))
+            for rpm in _wheel_limits_rpm(built):
+                for sign in (-1.0, 1.0):
+                    axes[k, 0].axhline(sign * rpm, color="0.4", lw=0.8, ls="--")
+            _shade_limited(axes[k, 0], ds, k)
         axes[k, 0].set_ylabel(f"{name} wheels (rpm)")
         for c in range(3):
             axes[k, 1].plot(t, ds["dipole_command"].values[:, k, c], lw=0.8, label=_AXES[c])
@@ -96,7 +127,8 @@ def actuator_figure(ds, built):
     axes[0, 1].legend(fontsize="small", ncols=3)
     for ax in axes[-1]:
         ax.set_xlabel("time (s)")
-    fig.suptitle(_title(ds, "wheel speeds and momentum-dumping dipole"))
+    fig.suptitle(_title(ds, "wheel speeds and momentum-dumping dipole\n"
+                            "(dashed: rated speeds; shaded: a wheel held at one)"))
     return fig
 
 

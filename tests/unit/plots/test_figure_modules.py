@@ -225,6 +225,24 @@ def test_observation_error_figure_marks_where_staring_starts(observation_run):
     np.testing.assert_array_equal(stare_lines[0][0].get_xdata(), [ds["time"].values[3]] * 2)
 
 
+def test_observation_figures_shade_where_a_drive_held_a_wheel_at_its_limit(observation_run):
+    """Where the counter ``wheel_speed_limited_time`` grows between two samples, that record
+    interval is shaded on the error and wheel figures; consecutive ones make one span."""
+    ds = observation_run.ds.copy(deep=True)
+    t = ds["time"].values
+    counter = np.zeros_like(ds["wheel_speed_limited_time"].values)  # (time, spacecraft, wheel)
+    counter[2:, 1, 0] = 0.1  # the follower's wheel 1 held during [t1, t2) ...
+    counter[3, 1, 3], counter[4:, 1, 3] = 0.1, 0.2  # ... and its wheel 4 during [t2, t4)
+    ds["wheel_speed_limited_time"].values[:] = counter
+    assert observation_plots.limited_spans(ds, 0) == [] and observation_plots.limited_spans(ds, 1) == [(t[1], t[4])]
+    error = observation_plots.error_figure(ds, observation_run.built)
+    wheels = np.array(observation_plots.actuator_figure(ds, observation_run.built).axes).reshape(2, 2)[:, 0]
+    for ax in (error.axes[1], wheels[1]):
+        (span,) = ax.patches
+        np.testing.assert_allclose([span.get_x(), span.get_x() + span.get_width()], [t[1], t[4]])
+    assert not error.axes[0].patches and not wheels[0].patches
+
+
 def test_observation_torque_actuator_elevation_and_relative_figures(observation_run):
     ds, built, toml = observation_run.ds, observation_run.built, observation_run.toml
     names = [str(s) for s in ds["spacecraft"].values]
@@ -243,9 +261,14 @@ def test_observation_torque_actuator_elevation_and_relative_figures(observation_
     wheel_rpm = ds["wheel_speed"].values * 60.0 / (2.0 * np.pi)
     for k, (wheels, dipole) in enumerate(rows):
         assert wheels.get_ylabel() == f"{names[k]} wheels (rpm)" and dipole.get_ylabel() == "dipole (A·m²)"
-        assert [line.get_label() for line in _lines(wheels)] == [str(w) for w in ds["wheel"].values]
-        for w, line in enumerate(_lines(wheels)):
+        assert [line.get_label() for line in _data_lines(wheels)] == [str(w) for w in ds["wheel"].values]
+        for w, line in enumerate(_data_lines(wheels)):
             np.testing.assert_allclose(line.get_ydata(), wheel_rpm[:, k, w], rtol=1e-12)
+        # The rated speeds, both signs, dashed: SPEC §5's 1000 rpm and the skewed wheel's 1732.
+        limits = sorted(line.get_ydata()[0] for line in wheels.get_lines() if line.get_linestyle() == "--")
+        assert limits == [-1732.0, -1000.0, 1000.0, 1732.0] == sorted(
+            s * v for s in (-1, 1) for v in set(toml["actuators"][0]["max_speed_rpm"]))
+        assert not wheels.patches  # no wheel reaches its limit in 5 s: nothing shaded
         for c, line in enumerate(_lines(dipole)):
             np.testing.assert_array_equal(line.get_ydata(), ds["dipole_command"].values[:, k, c])
 

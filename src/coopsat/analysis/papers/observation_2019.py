@@ -30,7 +30,10 @@ Metrics (the paper's Figs. 5, 8, 9):
   convergence, while both stare;
 * what saturates: ``torque_saturated_fraction_<sc>`` (samples whose torque command sits at
   ``torque_max_nm`` on some axis), ``wheel_speed_max_fraction_<sc>`` (largest wheel speed over
-  its limit) and ``wheel_speed_limit_s_<sc>`` (when a wheel first reaches 99 % of it).
+  its limit), ``wheel_speed_limit_s_<sc>`` (when a wheel first reaches 99 % of it) and
+  ``wheel_speed_limited_time_s_<sc>`` (the longest any one wheel was held at its rated speed,
+  its drive cutting the torque that would have taken it further: the run's
+  ``wheel_speed_limited_time``).
 
 A number the run does not define (no stare, no convergence) is None.
 """
@@ -130,7 +133,7 @@ def _settle_s(built):
 _PER_SPACECRAFT = (
     "stare_start_s", "switch_convergence_s", "overflight_s", "steady_attitude_error_max_deg",
     "steady_attitude_error_max_time_s", "steady_attitude_error_rms_deg", "steady_pointing_error_max_deg",
-    "torque_saturated_fraction", "wheel_speed_max_fraction", "wheel_speed_limit_s",
+    "torque_saturated_fraction", "wheel_speed_max_fraction", "wheel_speed_limit_s", "wheel_speed_limited_time_s",
 )
 _PAIR = (
     "relative_attitude_error_max_deg", "relative_attitude_error_rms_deg", "image_mismatch_max_deg",
@@ -177,8 +180,8 @@ def metrics(ds, built):
 
 def _saturation(ds, built):
     """What saturates: the fraction of samples whose torque command sits at the software's clip
-    on some axis, each spacecraft's largest wheel speed as a fraction of its limit, and when a
-    wheel first reaches 99 % of its limit."""
+    on some axis, each spacecraft's largest wheel speed as a fraction of its limit, when a
+    wheel first reaches 99 % of its limit, and how long a drive held a wheel at it."""
     controller = built.scenario.controller
     clipped = np.abs(ds["torque_command"].values) >= controller.torque_max_nm * (1.0 - 1e-9)
     m = {f"torque_saturated_fraction_{name}": float(clipped[:, k].any(axis=-1).mean()) for k, name in enumerate(built.names)}
@@ -192,6 +195,7 @@ def _saturation(ds, built):
         m[f"wheel_speed_max_fraction_{name}"] = float(fraction[:, k].max())
         at_limit = np.flatnonzero(fraction[:, k].max(axis=-1) >= 0.99)
         m[f"wheel_speed_limit_s_{name}"] = float(t[at_limit[0]]) if at_limit.size else None
+        m[f"wheel_speed_limited_time_s_{name}"] = float(ds["wheel_speed_limited_time"].values[-1, k].max())
     return m
 
 

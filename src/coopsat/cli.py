@@ -470,9 +470,10 @@ def _show_notice(message, category, filename, lineno, file=None, line=None):
 def main(argv=None):
     """Entry point of the ``coopsat`` command; returns the exit status.
 
-    Bad input: one line, status 2. SIGINT (Ctrl-C) and SIGTERM end a run at its next safe point
-    (after compiling, after a compiled chunk of the loop, between stages) with one line and
-    status 130 or 143, leaving nothing behind (:mod:`coopsat.workflows.interrupt`).
+    Bad input: one line, status 2. After SIGINT (Ctrl-C) or SIGTERM the status is 130 or 143,
+    never 0: a command stops at its next safe point (after compiling, after a compiled chunk of
+    the loop, between stages, right before its folder is renamed into place) and its last line
+    says either "nothing written" or which folder is complete (:mod:`coopsat.workflows.interrupt`).
     """
     from coopsat.workflows import interrupt
 
@@ -480,19 +481,23 @@ def main(argv=None):
     configure_process()
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = interrupt.install() if in_main_thread else {}
+    stop = None
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_notice
-            return args.func(args)
+            status = args.func(args)
     except _input_errors() as err:
         print(f"coopsat: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (KeyboardInterrupt, interrupt.Interrupted) as stop:
-        term = isinstance(stop, interrupt.Interrupted) and stop.signum == signal.SIGTERM
-        print(f"coopsat: {'terminated (SIGTERM)' if term else 'interrupted (SIGINT)'}; nothing written", file=sys.stderr)
-        return EXIT_TERMINATED if term else EXIT_INTERRUPTED
+    except (KeyboardInterrupt, interrupt.Interrupted) as err:
+        stop = getattr(err, "signum", signal.SIGINT)
     finally:
-        interrupt.restore(previous)
+        pending = interrupt.restore(previous)  # a signal during the command's last steps counts too
+    stop = stop or pending
+    if stop is None:
+        return status
+    print(f"coopsat: {interrupt.stop_line(stop)}", file=sys.stderr)
+    return EXIT_TERMINATED if stop == signal.SIGTERM else EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -1,8 +1,9 @@
 """Output folders written atomically, and the JSON they hold.
 
-Every command that writes a folder (``run``, ``sweep``, ``tradeoff``) fills a temporary sibling
-and renames it into place only once it is complete, so that a failure or an interrupt leaves
-nothing half-written, and an existing folder is replaced only by a complete one.
+Every command that writes a folder (``run``, ``sweep``, ``pair``, ``tune``, ``tradeoff``,
+``campaign report``) fills a temporary sibling and renames it into place only once it is
+complete, so that a failure or an interrupt leaves nothing half-written, and an existing folder
+is replaced only by a complete one.
 """
 
 import os
@@ -12,6 +13,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+
+from coopsat.workflows import interrupt
 
 
 def json_ready(obj):
@@ -55,10 +58,27 @@ def check_folder(out_dir, marker, what, error):
         raise error(f"--out {out_dir}: cannot create a folder under {parent}")
 
 
+def _rename_into_place(tmp, out_dir):
+    """Rename the finished folder ``tmp`` to ``out_dir``, replacing a folder there."""
+    if out_dir.exists():
+        # Move the old folder aside first, so that the new one is in place before the old
+        # one is deleted (a crash in between leaves a hidden sibling, never no folder).
+        trash = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
+        out_dir.rename(trash / out_dir.name)
+        tmp.rename(out_dir)
+        shutil.rmtree(trash, ignore_errors=True)
+    else:
+        tmp.rename(out_dir)
+
+
 @contextmanager
 def atomic_folder(out_dir, error):
     """Yield a temporary sibling of ``out_dir`` to fill; on success it replaces ``out_dir``, on
     any exception (an interrupt included) it is removed and ``out_dir`` is left as it was.
+
+    A stop requested by a signal before the rename raises here (:class:`~coopsat.workflows.
+    interrupt.Interrupted`: nothing written); one during or after it leaves the complete folder,
+    noted for the command's last line (:mod:`coopsat.workflows.interrupt`).
 
     Raises
     ------
@@ -74,15 +94,10 @@ def atomic_folder(out_dir, error):
         raise error(f"--out {out_dir}: {err.strerror or err}") from None
     try:
         yield tmp
-        if out_dir.exists():
-            # Move the old folder aside first, so that the new one is in place before the old
-            # one is deleted (a crash in between leaves a hidden sibling, never no folder).
-            trash = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
-            out_dir.rename(trash / out_dir.name)
-            tmp.rename(out_dir)
-            shutil.rmtree(trash, ignore_errors=True)
-        else:
-            tmp.rename(out_dir)
+        interrupt.check()  # a stop requested until now leaves nothing (the rule of interrupt.py)
+        with interrupt.holding():
+            _rename_into_place(tmp, out_dir)
+            interrupt.wrote(out_dir, f"the folder {out_dir} is complete")
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

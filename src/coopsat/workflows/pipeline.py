@@ -256,6 +256,7 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
         if figures:
             from coopsat.plots.figures import save_figures
 
+            interrupt.check()  # the figures take seconds: a stop need not wait for them (nothing is written)
             save_figures(run_figures(built, ds), tmp)
     return out_dir
 

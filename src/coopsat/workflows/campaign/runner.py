@@ -8,9 +8,14 @@ computes them. A batch in which a run turns non-finite is run again one run at a
 poisoned run fails alone. The driver writes each finished batch as
 ``batches/batch_NNNNNN.parquet`` (written beside, then renamed: a file there is complete), so
 ``campaign run`` on an existing folder skips the batches that are there: nothing is run twice
-or lost, even after SIGKILL.
+or lost, even after SIGKILL. SIGINT or SIGTERM stops the campaign when the next batch finishes
+(it is written first; status 130 or 143, the last line saying how many batches the folder
+holds); the local workers ignore both, so that a Ctrl-C, which reaches the whole process group,
+stops them only through the driver.
 """
 
+import contextlib
+import gc
 import json
 import os
 import re
@@ -19,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from coopsat.workflows import interrupt
 from coopsat.workflows.campaign.spec import (
     Campaign,
     CampaignError,
@@ -279,7 +285,19 @@ def client_for(workers=None, scheduler=None, connect_timeout_s=5.0):
     # runs its batches on one CPU device.
     cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0",
                            env=runtime.process_environment(cpu_devices=1))
-    return Client(cluster)
+    client = Client(cluster)
+    client.run(_leave_signals_to_the_driver)
+    return client
+
+
+def _leave_signals_to_the_driver():
+    """Ignore SIGINT and SIGTERM in a local worker (run on each): a Ctrl-C reaches the whole
+    process group, and a worker that died of it would print its traceback; the driver stops
+    at its next batch and closes the workers itself (:mod:`coopsat.workflows.interrupt`)."""
+    import signal
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)
 
 
 def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=False):
@@ -304,14 +322,18 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     if todo:
         from dask.distributed import as_completed
 
-        client = client_for(workers, scheduler)  # before the folder: an unreachable scheduler leaves nothing
-        _start_folder(out_dir, campaign_path, job)
         bar = None
-        if progress:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(total=campaign.runs, initial=campaign.runs - sum(len(batches[b]) for b in todo), unit="run", desc="campaign")
+        client = client_for(workers, scheduler)  # before the folder: an unreachable scheduler leaves nothing
         try:
+            interrupt.check()  # a stop while the workers started: nothing written
+            _start_folder(out_dir, campaign_path, job)
+            on_disk = len(batches) - len(todo)
+            interrupt.wrote(out_dir, _resume_note(out_dir, on_disk, len(batches)))
+            if progress:
+                from tqdm.auto import tqdm
+
+                bar = tqdm(total=campaign.runs, initial=campaign.runs - sum(len(batches[b]) for b in todo), unit="run",
+                           desc="campaign")
             shared = client.scatter(job, broadcast=True)
             futures = {client.submit(run_batch, shared, batches[b], key=f"batch-{b}-{time.time_ns()}", pure=False): b for b in todo}
             for future in as_completed(futures):
@@ -319,20 +341,47 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
                 # a campaign larger than memory streams to disk instead of piling up.
                 b = futures.pop(future)
                 rows, series = future.result()
-                write_batch(out_dir, b, rows, series)
+                with interrupt.holding():  # a finished batch is written whole, even after a signal
+                    write_batch(out_dir, b, rows, series)
+                    on_disk += 1
+                    interrupt.wrote(out_dir, _resume_note(out_dir, on_disk, len(batches)))
                 failed += sum(r["status"] != "ok" for r in rows)
                 if bar is not None:
                     bar.update(len(rows))
+                interrupt.check()  # a stop: the batches on disk are complete, the others wait for a resume
             peak_mb = max(client.run(_peak_rss_mb).values(), default=None)
         finally:
             if bar is not None:
                 bar.close()
-            cluster = client.cluster
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            _close(client)
     return {"runs": campaign.runs, "batches": len(batches), "skipped_batches": len(batches) - len(todo), "failed": failed,
             "wall_s": time.perf_counter() - t0, "worker_peak_rss_mb": peak_mb}
+
+
+def _resume_note(out_dir, on_disk, total):
+    """What the last line of a stopped campaign says of its folder (:func:`interrupt.wrote`),
+    ``on_disk`` of its ``total`` batches being there."""
+    if on_disk == total:
+        return f"the folder {out_dir} is complete ({total} batches)"
+    return f"the folder {out_dir} holds {on_disk} of {total} batches, each complete (the same command resumes the campaign)"
+
+
+def _close(client):
+    """Close ``client`` and, when it started one, its LocalCluster, letting the workers exit
+    on their own.
+
+    A worker process that has run batches holds a few hundred thousand Python objects (JAX's
+    traces and caches), and the interpreter's collections at exit walk them all: seconds under
+    load, past the 4 s after which the nanny kills the process and warns ("Worker process still
+    alive after 4.0 seconds, killing"). Frozen objects (:func:`gc.freeze`) are skipped by those
+    collections; memory is given back when the process ends either way."""
+    cluster = client.cluster
+    if cluster is not None:
+        with contextlib.suppress(Exception):  # a worker that is already gone needs no help
+            client.run(gc.freeze)
+    client.close()
+    if cluster is not None:
+        cluster.close()
 
 
 def _peak_rss_mb():

@@ -61,13 +61,12 @@ def _input_errors():
 
 
 def _cmd_list(args):
-    from coopsat.scenarios.load import bundled_names, read_raw
+    from coopsat.scenarios.catalogue import bundled_names, description
 
     names = bundled_names()
     width = max(len(n) for n in names)
     for name in names:
-        raw, _ = read_raw(name)
-        print(f"{name:<{width}}  {raw.get('description', '')}")
+        print(f"{name:<{width}}  {description(name)}")
     return 0
 
 

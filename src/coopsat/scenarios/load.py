@@ -17,20 +17,12 @@ import tomli_w
 from pydantic import ValidationError
 
 from coopsat.scenarios import hints
+from coopsat.scenarios.catalogue import BUNDLED_PACKAGE, bundled_names  # noqa: F401  (public here too)
 from coopsat.scenarios.schema import Scenario
 
 
 class ScenarioError(ValueError):
     """A scenario that cannot be loaded, validated or built; the message is one line."""
-
-
-BUNDLED_PACKAGE = "coopsat.scenarios.bundled"
-
-
-def bundled_names():
-    """Names of the bundled scenarios, sorted."""
-    files = resources.files(BUNDLED_PACKAGE).iterdir()
-    return sorted(f.name[: -len(".toml")] for f in files if f.name.endswith(".toml"))
 
 
 def bundled_text(name):

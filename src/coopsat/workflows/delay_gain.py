@@ -96,11 +96,16 @@ def gain_scenario_toml(source, result, gain, path):
 
 def _write_atomically(path, text):
     """Write ``text`` to ``path`` through a temporary sibling, so that an interrupted write
-    leaves the old file or none, never half of one."""
+    leaves the old file or none, never half of one; the rule of run folders
+    (:mod:`coopsat.workflows.interrupt`): a stop requested before the rename writes nothing,
+    one after it is told the file is complete."""
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:
         tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
+        interrupt.check()
+        with interrupt.holding():
+            os.replace(tmp, path)
+            interrupt.wrote(path, f"the file {path} is complete")
     finally:
         tmp.unlink(missing_ok=True)
 

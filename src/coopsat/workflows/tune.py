@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from coopsat.analysis.surrogates import surrogates
+from coopsat.workflows import interrupt
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
 from coopsat.workflows.pipeline import analyse, prepare, simulate_built
 from coopsat.workflows.tune_minimise import minimise
@@ -240,7 +241,11 @@ def _optimise(built, par, obj_spec, used, z0, bounds, max_iter, polish, report):
         cons = ", ".join(f"{c}: {g:+.3g}" for c, g in zip(used, v[1:]))
         return f"  iter {k:3d}  {obj_spec.metric} surrogate {v[0]:.6g}" + (f"  constraints (≤ 0) {cons}" if used else "")
 
-    return minimise(stacked, z0, len(used), bounds, max_iter, lambda k, v: report(line(k, v)), polish=polish)
+    def each_iteration(k, v):
+        interrupt.check()  # Ctrl-C ends the search between iterations, not after all of them
+        report(line(k, v))
+
+    return minimise(stacked, z0, len(used), bounds, max_iter, each_iteration, polish=polish)
 
 
 def _rerun(run, opt, attempt, ref, overrides, par):

@@ -15,6 +15,7 @@ pulse switches, native kernels where they apply), and the array layouts inside i
 docs/engine-notes.md.
 """
 
+import functools
 import math
 import time
 from dataclasses import dataclass, replace
@@ -93,9 +94,12 @@ class RunOutput:
     run_s: float
 
 
-_COMPILED = ProgramCache(max_size=32)
+_COMPILED = ProgramCache(max_size=8)
 """Compiled programs of this process (initial carry, chunk, final sample), by system structure,
-leaf shapes, chunk and batching (:mod:`coopsat.sim.program_cache`: safe under threads)."""
+leaf shapes, chunk and batching (:mod:`coopsat.sim.program_cache`: safe under threads). Eight:
+a large program holds 100–300 MB of generated code, and a campaign, a sweep or a pair runs
+one to a few structures; a structure evicted and run again is traced and loaded from the
+persistent cache (about a second), not rebuilt from nothing."""
 
 MAX_CHUNK = 4096
 """Most record intervals per compiled call: bounds the padding of the last chunk (memory)."""
@@ -146,21 +150,35 @@ def _program_key(system, chunk, batch):
     return (jax.tree_util.tree_structure(system), leaves, chunk, batch is not None, groups, devices)
 
 
+def _fresh(jitted):
+    """A new function object that calls ``jitted``'s Python function, for one compile.
+
+    JAX keeps what it traced and lowered in caches keyed by the function: for a module-level
+    function they live as long as the process, several hundred MB a large program (a test
+    process that ran every bundled scenario reached 7.7 GB). A fresh function's entries go
+    with it, so the bounded :data:`_COMPILED` is the only holder of a compiled program. The
+    name is kept: the persistent compilation cache keys on the lowered module, named for it.
+    """
+    fn = getattr(jitted, "__wrapped__", jitted)
+    return functools.wraps(fn)(lambda *args, **kwargs: fn(*args, **kwargs))
+
+
 def _compile(system, n_records, chunk, batch):
     """The run's three programs, compiled: (initial carry, chunk, final sample).
 
     The first and last samples are compiled too, not run op by op: op by op they dispatch (and,
     for each new batch size, compile) hundreds of small programs (docs/engine-notes.md,
     "Compiled first and last samples")."""
-    if batch is None:
-        init, final = _initial_carry, _final_sample
-    else:
-        init = jax.vmap(_initial_carry, in_axes=(batch.axes,), out_axes=CARRY_AXES)
-        final = jax.vmap(_final_sample, in_axes=(batch.axes, CARRY_AXES))
+    init, final = _fresh(_initial_carry), _fresh(_final_sample)
+    if batch is not None:
+        init = jax.vmap(init, in_axes=(batch.axes,), out_axes=CARRY_AXES)
+        final = jax.vmap(final, in_axes=(batch.axes, CARRY_AXES))
     carry = jax.eval_shape(init, system)
     init = jax.jit(init).lower(system).compile()
-    lowered = (_run_chunk_batched.lower(system, carry, 0, n_records, chunk, batch.groups, batch.devices)
-               if batch is not None else _run_chunk.lower(system, carry, 0, n_records, chunk))
+    lowered = (jax.jit(_fresh(_run_chunk_batched), static_argnames=("chunk", "groups", "devices")).lower(
+                   system, carry, 0, n_records, chunk, batch.groups, batch.devices)
+               if batch is not None else
+               jax.jit(_fresh(_run_chunk), static_argnames=("chunk",)).lower(system, carry, 0, n_records, chunk))
     run_chunk = lowered.compile()
     # The last sample reads the carry as the chunks leave it (shared among devices when a
     # batch is).

@@ -63,3 +63,26 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     over = [worker for worker, mb in peaks.items() if mb > PEAK_RSS_LIMIT_MB]
     terminalreporter.write_line(f"peak resident memory per test process: {text}"
                                 + (f"  (over {PEAK_RSS_LIMIT_MB} MB: {', '.join(over)})" if over else ""))
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _release_compiled_programs():
+    """After each test module, drop the compiled programs and JAX's caches and give the freed
+    memory back to the system: a worker otherwise keeps every structure it ever compiled (a
+    large one is 100–300 MB of generated code) and glibc keeps what was freed. The next module
+    traces its own structures again and loads them from the persistent compilation cache."""
+    yield
+    import ctypes
+    import gc
+
+    import jax
+
+    from coopsat.sim import engine
+
+    engine._COMPILED.clear()
+    jax.clear_caches()
+    gc.collect()
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):  # not glibc: nothing to trim
+        pass

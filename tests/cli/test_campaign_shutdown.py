@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 COOPSAT = str(Path(sys.executable).parent / "coopsat")
 
 CAMPAIGN = """
@@ -27,6 +29,7 @@ mode = "relative"
 """
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_a_campaign_on_two_local_workers_ends_without_a_warning(tmp_path):
     (tmp_path / "camp.toml").write_text(CAMPAIGN)
     done = subprocess.run([COOPSAT, "campaign", "run", "camp.toml", "--out", "c", "--workers", "2", "-q"], cwd=tmp_path,

@@ -161,6 +161,7 @@ def test_local_cluster_writes_every_run_once(reference):
     assert marker["campaign"]["runs"] == RUNS and marker["campaign"]["master_seed"] == 4242
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_dask_scheduler_and_worker_on_loopback_give_the_same_rows(work, reference, tmp_path):
     port = free_port()
     address = f"tcp://127.0.0.1:{port}"
@@ -191,6 +192,7 @@ def test_dask_scheduler_and_worker_on_loopback_give_the_same_rows(work, referenc
     assert_same_rows(reference, tmp_path / "sched")
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_unreachable_scheduler_is_one_line_within_15_s(work, tmp_path):
     port = free_port()  # bound, then closed: nothing listens there
     out = tmp_path / "nowhere"
@@ -204,6 +206,7 @@ def test_unreachable_scheduler_is_one_line_within_15_s(work, tmp_path):
     assert not out.exists()  # the scheduler is tried before the folder is made
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_sigkill_then_resume_runs_every_run_exactly_once(work, reference):
     out = work / "killed"
     batches = out / "batches"
@@ -277,6 +280,7 @@ sigma = 0.05
 """
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_replay_of_a_run_from_a_batch_of_four_is_identical(tmp_path, capsys):
     (tmp_path / "unsaturated.toml").write_text(UNSATURATED)
     (tmp_path / "camp.toml").write_text(UNSATURATED_CAMPAIGN)
@@ -356,6 +360,7 @@ def test_folder_that_is_not_a_campaign_folder(work, tmp_path, capsys):
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_a_full_disk_stops_with_one_line_keeps_finished_batches_and_resumes(work, reference, tmp_path, capsys, monkeypatch):
     """The disk fills while the second batch is written (a partial Parquet file, then ENOSPC):
     exit 2 with one line, the first batch complete, nothing half-written; with room again the
@@ -388,6 +393,7 @@ def test_a_full_disk_stops_with_one_line_keeps_finished_batches_and_resumes(work
     assert_same_rows(out, reference)
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_finished_batches_are_released_on_the_worker_as_they_are_written(work, tmp_path, capsys, monkeypatch):
     """A campaign larger than memory streams to disk: when the k-th batch is about to be
     written, the worker holds only the results not yet written (BATCHES − k), not every result

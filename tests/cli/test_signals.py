@@ -234,6 +234,7 @@ mode = "relative"
 """
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_ctrl_c_stops_a_campaign_between_batches_and_the_same_command_resumes_it(tmp_path):
     """SIGINT to the whole process group (as Ctrl-C sends it): the workers ignore it, the driver
     writes the batch in hand and stops, status 130, its last line counting the batches on disk."""

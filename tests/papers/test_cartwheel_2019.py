@@ -34,6 +34,7 @@ def test_bundled_deputies_start_on_the_circle(name):
     np.testing.assert_allclose(rho_dot, ideal[:, 3:], atol=1e-12)
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_reconfiguration_reaches_the_circle_and_pso_equals_its_grid():
     built, ds, m = _run("cartwheel-reconfigure")
     assert m["reconfiguration_time_s"] is not None and m["reconfiguration_time_s"] < 2000.0

@@ -55,6 +55,7 @@ def _variant(tmp_path, name, drop=(), replace=()):
     return path
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_paired_runs_share_the_reference_bit_for_bit():
     """The reference flies law 8 in both scenarios on the same seed, so everything it does is
     identical; the follower, cooperating in one and not in the other, differs."""
@@ -77,6 +78,7 @@ def test_pair_refuses_scenarios_that_would_not_share_noise():
         run_pair(COOP, LITERAL, n_seeds=1)
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_bodies_and_wheels_conserve_angular_momentum(tmp_path):
     """No external torque (no disturbances, no magnetorquers): the wheels' speed error and the
     control only move momentum between wheels and bodies; |Σ C(q)(Iω + h)| stays 0."""
@@ -120,6 +122,7 @@ def test_wheel_drives_stop_the_wheels_at_their_rated_speed():
         assert 1.0 <= metrics[f"wheel_speed_max_fraction_{name}"] < 1.0 + 1e-5  # against 1.02 before
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_linearised_jitter_predicts_the_simulated_one():
     """check_disturbance-budget's σ_θ = σ √(T/(2 (k1/2) k2)) per axis against 300 s of the
     literal 1e-3 N·m torque while sun-pointing (the star tracker's 10″ adds < 1 %)."""
@@ -162,6 +165,7 @@ def test_dumping_without_magnetorquers_is_an_error(tmp_path):
         prepare(load_scenario(path))
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_a_target_that_never_rises_is_a_warning_not_a_stare():
     built = prepare(load_scenario(COOP, ["controller.target_lat_deg=60.0", "sim.t_final_s=20"]))
     check = built.checks["target-visibility"]

@@ -335,7 +335,8 @@ def test_there_are_bundled_campaigns():
                                              "observation-cooperative-dispersed"}
 
 
-@pytest.mark.parametrize("name", bundled_campaign_names())
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n.startswith(("observation", "cartwheel-navigation"))
+                                  else n for n in bundled_campaign_names()])  # 14–31 s each: CI's second pass
 def test_bundled_campaign_runs_two_runs(name, tmp_path):
     campaign, ref, fields = load_campaign(name)
     assert campaign.runs >= 2 and fields and all(fields)
@@ -358,6 +359,7 @@ def test_bundled_campaign_runs_two_runs(name, tmp_path):
     assert all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_no_bundled_campaign_draws_an_invalid_scenario(tmp_path):
     """Every drawn run of every bundled campaign (a sample of 25 each) is a scenario the
     builder accepts: none ships runs that fail by construction (a delay that is not a whole

@@ -300,6 +300,7 @@ def test_design_gain_maximises_the_delay_bound_classical():
     check_by_simulation(classical_one_follower, design, np.array([1.0, -0.5]), seed=1)
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_design_gain_maximises_the_decay_rate_law3():
     h = 0.5
     design = design_gain(law3_two_followers, h, [[0.5, 1.0]], [(0.05, 3.0), (0.05, 3.0)], max_evaluations=12, tol=1e-2)

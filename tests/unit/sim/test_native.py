@@ -93,6 +93,7 @@ def test_vmap_over_runs_equals_each_run():
         np.testing.assert_array_equal(np.asarray(batched["q"][k]), np.asarray(alone["q"]))
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_gradient_through_native_tick_is_xla_gradient():
     # Derivatives come from the XLA tick (custom_jvp): d(final attitude)/d(gain, inertia).
     system = bench_system(6, "consensus-sync", record_ticks=50)

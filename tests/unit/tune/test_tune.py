@@ -72,6 +72,7 @@ for _k, (_x, _y) in enumerate([(-100, -100), (100, -100), (100, 100), (-100, 100
     AT_ORIGIN += [f"spacecraft.{_k}.r_eci_m=[{_x}.0, {_y}.0, 0.0]", f"spacecraft.{_k}.v_eci_m_s=[0.0, 0.0, 0.0]"]
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_formation_gain_gradient_matches_central_differences():
     built = prepare(load_scenario("deepspace-square-to-line-lqr", ["sim.t_final_s=500", *AT_ORIGIN]))
     params = resolve_params(built, ["controller.gain"])
@@ -190,6 +191,7 @@ def test_tuning_the_pid_gains_finds_the_riccati_optimum(tmp_path):
 # --- 3. the exact loop meets the constraint after tuning --------------------------------------
 
 
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
 def test_tuned_consensus_gains_meet_the_constraint_on_the_exact_loop():
     # The scenario's own gains synchronise at 342.5 s on the exact loop: over the bound. Four
     # SLSQP steps reach α ≈ 0.67, β ≈ 3.14, which synchronise at 202.5 s (measured).

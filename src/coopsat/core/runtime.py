@@ -123,6 +123,19 @@ def persistent_cache_dir(kind):
     return Path(cache_dir) / f"coopsat-{kind}" if cache_dir else None
 
 
+def keep_in_cache(path, data):
+    """Write ``data`` (bytes) to ``path`` in the persistent cache atomically (a temporary
+    sibling renamed into place: a reader never meets half a file); a cache that cannot be
+    written is skipped, since it only saves time."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
 def process_environment(cpu_devices=None, cache=True):
     """Environment variables of a process coopsat starts itself (a campaign's Dask worker):
     ``XLA_FLAGS`` (:func:`_xla_cpu_flags`) and, with ``cache``, the ``JAX_*`` variables of

@@ -19,7 +19,6 @@ matrix exponentials, was 0.4 s of every ``coopsat run`` of it.
 import copy
 import functools
 import hashlib
-import os
 import pickle
 from importlib import metadata
 from pathlib import Path
@@ -80,16 +79,15 @@ def _load(path):
 
 
 def _keep(path, result):
-    """Write ``result`` to ``path`` atomically; one that cannot be pickled or written is skipped
-    (the cache only saves time)."""
+    """Write ``result`` to ``path``; one that cannot be pickled is skipped (the cache only
+    saves time)."""
+    from coopsat.core.runtime import keep_in_cache
+
     try:
         data = pickle.dumps(result, protocol=5)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
-    except (OSError, pickle.PicklingError, TypeError, AttributeError):
-        pass
+    except (pickle.PicklingError, TypeError, AttributeError):
+        return
+    keep_in_cache(path, data)
 
 
 def kept(name, key, compute):

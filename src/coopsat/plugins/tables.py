@@ -118,9 +118,9 @@ def vector_norm(v):
 
 
 def _check_quaternion(q):
-    if not np.all(np.isfinite(q)) or vector_norm(q) == 0.0:
+    norm = vector_norm(q) if np.all(np.isfinite(q)) else 0.0
+    if norm == 0.0:
         raise ValueError("must be a non-zero, finite quaternion [q0, q1, q2, q3] (scalar first)")
-    norm = vector_norm(q)
     if abs(norm - 1.0) > QUAT_NORM_TOL:
         shown = f"{norm:.4g}" if math.isfinite(norm) else f"above {FLOAT_MAX:.3g} (overflows float64)"
         raise ValueError(

@@ -12,6 +12,7 @@ from pathlib import Path
 from coopsat.plugins import DesignError
 from coopsat.scenarios.load import ScenarioError, load_scenario
 from coopsat.workflows import interrupt
+from coopsat.workflows.folders import unwritable_parent
 from coopsat.workflows.pipeline import prepare
 
 #: The stage reported while the scenario is loaded and its design checks run (seconds: the
@@ -132,10 +133,8 @@ def _out_path(out, name):
         raise ScenarioError(f"--out {path}: is a folder; name the file, e.g. {path / f'{name}-delay-gain.toml'}")
     if path.suffix != ".toml":
         raise ScenarioError(f"--out {path}: a scenario file must end in .toml")
-    parent = path.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK):
+    parent = unwritable_parent(path)
+    if parent is not None:
         raise ScenarioError(f"--out {path}: cannot write under {parent}")
     return path
 

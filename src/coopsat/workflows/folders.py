@@ -51,11 +51,18 @@ def check_folder(out_dir, marker, what, error):
     out_dir = Path(out_dir)
     if out_dir.exists() and not (out_dir.is_dir() and (out_dir / marker).is_file()):
         raise error(f"--out {out_dir}: exists and is not a {what} folder (no {marker}); choose another folder or remove it")
-    parent = out_dir.parent
+    parent = unwritable_parent(out_dir)
+    if parent is not None:
+        raise error(f"--out {out_dir}: cannot create a folder under {parent}")
+
+
+def unwritable_parent(path):
+    """The nearest existing folder above ``path`` when it cannot be written in (where ``path``
+    would be created), else None."""
+    parent = Path(path).parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK):
-        raise error(f"--out {out_dir}: cannot create a folder under {parent}")
+    return None if parent.is_dir() and os.access(parent, os.W_OK) else parent
 
 
 def _rename_into_place(tmp, out_dir):

@@ -201,14 +201,10 @@ def _load_verdict(path):
 
 
 def _keep_verdict(path, verdict):
-    """Write ``verdict`` to ``path`` atomically; a cache that cannot be written is skipped."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(json.dumps(verdict._asdict()))
-        os.replace(tmp, path)
-    except OSError:
-        pass
+    """Write ``verdict`` to ``path`` (:func:`coopsat.core.runtime.keep_in_cache`)."""
+    from coopsat.core.runtime import keep_in_cache
+
+    keep_in_cache(path, json.dumps(verdict._asdict()).encode())
 
 
 _lock = threading.Lock()

@@ -28,8 +28,6 @@ import numpy as np
 
 from coopsat.dynamics.plant import STATE_QUANTITIES
 from coopsat.sim.batching import CARRY_AXES, bucket_runs, prepare_batch
-from coopsat.sim.layout import _engine_view  # noqa: F401  (re-exported: tests of the parts reach it here)
-from coopsat.sim.period import _KEY_SENSORS, _sense  # noqa: F401  (likewise)
 from coopsat.sim.program_cache import ProgramCache
 from coopsat.sim.programs import _final_sample, _initial_carry, _run_chunk, _run_chunk_batched
 from coopsat.sim.tick import _quantities

@@ -17,7 +17,7 @@ from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import ScenarioError, load_scenario
 from coopsat.sensors.noise import ARCSEC_RAD, star_tracker_measure
 from coopsat.sensors.parts import Gyro
-from coopsat.sim import engine
+from coopsat.sim import engine, layout, period
 from coopsat.sim.system import stack_systems
 
 SIGMA_ARCSEC = 10.0
@@ -113,7 +113,7 @@ def test_controller_acts_on_the_star_tracker_reading(tmp_path, runs):
     np.testing.assert_array_equal(q_true, free.q.values[0])
     period_key = jax.random.fold_in(jax.random.PRNGKey(3), 0)
     sigma = SIGMA_ARCSEC * ARCSEC_RAD
-    q_meas = np.asarray(star_tracker_measure(q_true.T, jax.random.fold_in(period_key, engine._KEY_SENSORS + 0), sigma)).T
+    q_meas = np.asarray(star_tracker_measure(q_true.T, jax.random.fold_in(period_key, period._KEY_SENSORS + 0), sigma)).T
     adjacency = prepare(_scenario(tmp_path, _sensors(SIGMA_ARCSEC, 0, 0))).adjacency
     u = np.zeros_like(omega)
     for i in range(len(q_true)):
@@ -142,10 +142,10 @@ def _sense_frames(system, frames):
     """The measurements of the first ``frames`` control periods, the true state held at x(0)."""
     carry = engine._initial_carry(system)
     x, st = carry[0], carry[1]
-    view = engine._engine_view(system)
+    view = layout._engine_view(system)
     readings = []
     for frame in range(frames):
-        y, st = engine._sense(view, x, st, frame, jax.random.fold_in(system.key, frame), frame * view.period_s)
+        y, st = period._sense(view, x, st, frame, jax.random.fold_in(system.key, frame), frame * view.period_s)
         readings.append(jax.tree_util.tree_map(np.asarray, y))
     return x, readings
 

@@ -140,7 +140,39 @@ def inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms=0.0):
     return np.asarray(quat_rotate(q, h_b)).sum(axis=1)
 
 
-def run_metrics(ds, names, inertia_kgm2, h_wheels_b_nms=0.0):
+TORQUE_UNITS = "N m"
+"""``units`` of every recorded torque (actuators and disturbances alike, docs/scenarios.md)."""
+
+
+def attitude_moves(ds, initial_rate_rad_s=None, initial_angle_rad=None):
+    """Whether the run simulates attitude motion: something can torque a spacecraft (the record
+    holds a torque, in :data:`TORQUE_UNITS`) or one starts turning or turned.
+
+    A translation-only run (deep space, cartwheel keeping) carries a constant attitude at rest:
+    its rates, attitude errors and angular momentum are zero because they are not simulated,
+    not because a controller achieved it.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Run record (only its variables' ``units`` are read, and ``omega``/``angle`` at t = 0
+        unless given).
+    initial_rate_rad_s, initial_angle_rad : array_like, optional
+        Initial body rates and small angles (n, 3), rad/s and rad, in place of the record's
+        first sample (the scenario's values, for a stand-in record).
+
+    Returns
+    -------
+    bool
+    """
+    if any(v.attrs.get("units") == TORQUE_UNITS for v in ds.data_vars.values()):
+        return True
+    rate = ds["omega"].values[0] if initial_rate_rad_s is None else initial_rate_rad_s
+    angle = (ds["angle"].values[0] if "angle" in ds else 0.0) if initial_angle_rad is None else initial_angle_rad
+    return bool(np.any(np.asarray(rate) != 0.0) or np.any(np.asarray(angle) != 0.0))
+
+
+def run_metrics(ds, names, inertia_kgm2, h_wheels_b_nms=0.0, attitude=True):
     """Metrics every run has, as a flat dict of named numbers (unit at the end of each name).
 
     A paper's own metrics (synchronisation and tracking times, …) come from its analysis
@@ -155,18 +187,20 @@ def run_metrics(ds, names, inertia_kgm2, h_wheels_b_nms=0.0):
     inertia_kgm2 : ndarray, shape (n, 3, 3)
     h_wheels_b_nms : ndarray, shape (n, 3) or (T, n, 3), optional
         Wheel momentum of each spacecraft (in the formation's angular momentum).
+    attitude : bool
+        Whether the run simulates attitude motion (:func:`attitude_moves`); without it the
+        rate and angular momentum metrics are left out.
 
     Returns
     -------
     dict of str -> float, int or None
-        Final largest rate, the formation's inertial angular momentum at both ends (rigid-body
-        attitude model), and per
-        spacecraft every actuator counter the run recorded (impulse, thruster on-time and
-        firings).
+        Final largest rate and the formation's inertial angular momentum at both ends
+        (rigid-body attitude model), when attitude is simulated; per spacecraft every actuator
+        counter the run recorded (impulse, thruster on-time and firings).
     """
     omega = ds["omega"].values
-    m = {"final_rate_max_rad_s": float(np.linalg.norm(omega[-1], axis=-1).max())}
-    if "q" in ds:  # the rigid-body attitude model (the small-angle model has no inertial attitude)
+    m = {"final_rate_max_rad_s": float(np.linalg.norm(omega[-1], axis=-1).max())} if attitude else {}
+    if attitude and "q" in ds:  # the rigid-body attitude model (the small-angle model has no inertial attitude)
         h_w = ds["h_wheels"].values if "h_wheels" in ds else h_wheels_b_nms
         h = inertial_angular_momentum_nms(ds["q"].values, omega, inertia_kgm2, h_w)
         m["angular_momentum_initial_nms"] = float(np.linalg.norm(h[0]))

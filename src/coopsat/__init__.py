@@ -36,6 +36,8 @@ _PUBLIC = {
     "pair": "coopsat.api",
     "tune": "coopsat.api",
     "campaign": "coopsat.api",
+    "export": "coopsat.api",
+    "ExportError": "coopsat.exports.run",
 }
 _SUBPACKAGES = ("design", "network", "plugins")
 
@@ -49,6 +51,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazi
         Validation,
         campaign,
         configure,
+        export,
         pair,
         run,
         run_batch,
@@ -56,6 +59,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazi
         tune,
         validate,
     )
+    from coopsat.exports.run import ExportError
     from coopsat.workflows.pipeline import Result
     from coopsat.scenarios.document import Scenario
     from coopsat.scenarios.load import ScenarioError

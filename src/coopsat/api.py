@@ -302,3 +302,34 @@ def campaign(campaign: str | Path, out_dir: str | Path, *, workers: int | None =
     summary = run_campaign(campaign, Path(out_dir), workers=workers, scheduler=scheduler, progress=progress)
     return CampaignRun(Path(out_dir), **{k: summary[k] for k in ("runs", "batches", "skipped_batches", "failed", "wall_s",
                                                                   "worker_peak_rss_mb")})
+
+def export(run: Result | str | Path, format: str, out: str | Path | None = None) -> Path:
+    """Write a finished run as a CCSDS OEM, a CCSDS AEM or a CZML scene (``coopsat export``,
+    docs/export.md).
+
+    Parameters
+    ----------
+    run : Result, str or Path
+        A run in memory, or a run folder written by ``coopsat run``.
+    format : {"oem", "aem", "czml"}
+        ``oem``: orbits (EME2000, km, UTC); ``aem``: attitude quaternions (EME2000 to
+        SC_BODY_1, A2B, scalar first); ``czml``: a Cesium scene of an Earth orbit.
+    out : str or Path, optional
+        The file written; for an OEM or AEM of several spacecraft, a folder of one file per
+        spacecraft (CCSDS messages describe one object each). Default: in the run folder (the
+        current folder for a run in memory), ``<scenario>.<format>`` or ``<scenario>-<format>/``.
+
+    Returns
+    -------
+    Path
+        The file or folder written.
+
+    Raises
+    ------
+    ExportError
+        One line naming the cause: an unknown format, a run without what the format holds
+        (positions, attitude, a central body the standard names), an output that cannot be written.
+    """
+    from coopsat.exports import export_run
+
+    return export_run(run, format, out)

@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|margin|design|topology|tradeoff|sweep|tune|campaign|bench``.
+"""Command line: ``coopsat list|show|validate|run|export|margin|design|topology|tradeoff|sweep|tune|campaign|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -55,9 +55,10 @@ def _input_errors():
     from coopsat.workflows.pair import PairError
     from coopsat.plugins import PluginError
     from coopsat.sim.native.capability import NativeUnavailableError
+    from coopsat.exports.run import ExportError
 
     return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError,
-            PairError, PluginError, NativeUnavailableError)
+            PairError, PluginError, NativeUnavailableError, ExportError)
 
 
 def _cmd_list(args):
@@ -120,6 +121,13 @@ def _cmd_run(args):
     print(f"wrote {result.out_dir}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
     if not args.quiet:
         _print(summary_lines(result))
+    return 0
+
+
+def _cmd_export(args):
+    from coopsat.api import export
+
+    print(f"wrote {export(args.run_dir, args.format, args.out)}")
     return 0
 
 
@@ -301,6 +309,23 @@ def _add_run(sub):
     run.set_defaults(func=_cmd_run)
 
 
+def _add_export(sub):
+    exp = sub.add_parser(
+        "export", help="write a run folder as a CCSDS OEM (orbits), a CCSDS AEM (attitudes) or a CZML scene",
+        description="Write a run folder's states in a standard format (docs/export.md): oem, CCSDS OEM 2.0 of the "
+                    "positions and velocities (EME2000, km, UTC); aem, CCSDS AEM 1.0 of the attitude quaternions "
+                    "(EME2000 to SC_BODY_1, A2B, scalar first); czml, a Cesium scene of an Earth orbit. A CCSDS "
+                    "message holds one spacecraft: a formation's OEM or AEM is a folder of one file per spacecraft.")
+    exp.add_argument("run_dir", help="a run folder written by coopsat run")
+    # No argparse choices: the formats are coopsat.exports.FORMATS, which the parser does not
+    # import (coopsat list stays quick); an unknown one is a one-line error from the export.
+    exp.add_argument("--format", required=True, metavar="oem|aem|czml", help="the format to write")
+    exp.add_argument("--out", metavar="PATH",
+                     help="the file (a folder for an OEM or AEM of several spacecraft); default RUN_DIR/<scenario>.<format> "
+                          "or RUN_DIR/<scenario>-<format>/")
+    exp.set_defaults(func=_cmd_export)
+
+
 def _add_margin(sub):
     margin = sub.add_parser("margin", help="exact constant-delay margin of a scenario's delayed consensus law")
     margin.add_argument("scenario")
@@ -452,7 +477,7 @@ def build_parser():
     """The argument parser (exposed for tests and documentation)."""
     p = argparse.ArgumentParser(prog="coopsat", description="Cooperative control of spacecraft formations.")
     sub = p.add_subparsers(dest="command", required=True)
-    for add in (_add_list, _add_show, _add_validate, _add_run, _add_margin, _add_design, _add_topology, _add_tradeoff, _add_sweep, _add_pair, _add_tune, _add_campaign, _add_bench):
+    for add in (_add_list, _add_show, _add_validate, _add_run, _add_export, _add_margin, _add_design, _add_topology, _add_tradeoff, _add_sweep, _add_pair, _add_tune, _add_campaign, _add_bench):
         add(sub)
     return p
 

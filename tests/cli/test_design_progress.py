@@ -87,17 +87,17 @@ def test_an_interrupt_between_gains_stops_the_search_and_writes_nothing(tmp_path
 def test_the_designed_file_follows_the_folder_rule(tmp_path):
     """A stop requested before the rename writes nothing; once the file is in place, the
     command's last line says it is complete (workflows.interrupt)."""
-    from coopsat.workflows.delay_gain import _write_atomically
+    from coopsat.workflows.folders import write_text_atomically
 
     path = tmp_path / "d.toml"
     try:
         interrupt.install()
         interrupt.request(signal.SIGINT, None)
         with pytest.raises(interrupt.Interrupted):
-            _write_atomically(path, "x = 1\n")
+            write_text_atomically(path, "x = 1\n")
         assert not list(tmp_path.iterdir())
         interrupt.restore(interrupt.install())
-        _write_atomically(path, "x = 1\n")
+        write_text_atomically(path, "x = 1\n")
         assert path.read_text() == "x = 1\n"
         assert interrupt.stop_line(signal.SIGTERM) == f"terminated (SIGTERM) after writing: the file {path} is complete"
     finally:

@@ -6,13 +6,12 @@ a minute, also reports its stages through a ``progress`` callback (the command p
 stderr) and writes one file only, the one named by ``out`` (or its default, named last).
 """
 
-import os
 from pathlib import Path
 
 from coopsat.plugins import DesignError
 from coopsat.scenarios.load import ScenarioError, load_scenario
 from coopsat.workflows import interrupt
-from coopsat.workflows.folders import unwritable_parent
+from coopsat.workflows.folders import unwritable_parent, write_text_atomically
 from coopsat.workflows.pipeline import prepare
 
 #: The stage reported while the scenario is loaded and its design checks run (seconds: the
@@ -93,22 +92,6 @@ def gain_scenario_toml(source, result, gain, path):
         f"# {result.solver}, {result.status}. Run it: coopsat run {path}\n"
         f'extends = "{source}"\n\n[controller]\ngain = [{gain[0]!r}, {gain[1]!r}]\n'
     )
-
-
-def _write_atomically(path, text):
-    """Write ``text`` to ``path`` through a temporary sibling, so that an interrupted write
-    leaves the old file or none, never half of one; the rule of run folders
-    (:mod:`coopsat.workflows.interrupt`): a stop requested before the rename writes nothing,
-    one after it is told the file is complete."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        interrupt.check()
-        with interrupt.holding():
-            os.replace(tmp, path)
-            interrupt.wrote(path, f"the file {path} is complete")
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def progress_text(stage, done, total, best):
@@ -199,7 +182,7 @@ def design_gain_scenario(ref, overrides=(), h=None, out=None, max_evaluations=10
     source = str(Path(ref).resolve()) if str(ref).endswith(".toml") else ref
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        _write_atomically(path, gain_scenario_toml(source, result, k, path))
+        write_text_atomically(path, gain_scenario_toml(source, result, k, path))
     except OSError as err:
         # Give the gain in the one line: it took a minute to find.
         raise ScenarioError(f"--out {path}: cannot write it ({err.strerror}); the gain found is K = {k!r}, "

@@ -65,6 +65,23 @@ def unwritable_parent(path):
     return None if parent.is_dir() and os.access(parent, os.W_OK) else parent
 
 
+def write_text_atomically(path, text):
+    """Write ``text`` (UTF-8) to the file ``path`` through a temporary sibling, so that a failure
+    or an interrupt leaves the old file or none, never half of one; the rule of run folders
+    (:mod:`coopsat.workflows.interrupt`): a stop requested before the rename writes nothing,
+    one after it is told the file is complete."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        interrupt.check()
+        with interrupt.holding():
+            os.replace(tmp, path)
+            interrupt.wrote(path, f"the file {path} is complete")
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def _rename_into_place(tmp, out_dir):
     """Rename the finished folder ``tmp`` to ``out_dir``, replacing a folder there."""
     if out_dir.exists():

@@ -1,0 +1,182 @@
+"""What an export reads from a finished run: names, times, epoch, central body and the states.
+
+A run is read once into a :class:`RunStates` (NumPy, SI); the format modules only format it.
+What a format needs and a run lacks is refused here, in one line naming the cause
+(:func:`require_positions`, :func:`require_attitude`).
+
+Frames (docs/export.md): the run's inertial frame is the ECI of docs/conventions.md (J2000-like
+axes, no precession), centred on the ``[orbit]`` central body; the CCSDS messages name its axes
+``EME2000``. Times are ``epoch + t`` with the epoch ``[orbit] epoch_utc`` on the UTC scale, as
+the run itself uses it (every day 86 400 s).
+"""
+
+import tomllib
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from coopsat.astro.constants import MU_EARTH_M3_S2, MU_SUN_M3_S2
+
+
+class ExportError(ValueError):
+    """A run that cannot be exported in the format asked, or an output that cannot be written:
+    one line naming the cause."""
+
+
+CENTRAL_BODIES = {"EARTH": MU_EARTH_M3_S2, "SUN": MU_SUN_M3_S2}
+"""CCSDS ``CENTER_NAME`` of each central body a run may orbit, by its gravitational parameter, m³/s²."""
+
+MU_MATCH_RTOL = 0.01
+"""A run's ``[orbit] mu_m3_s2`` names a body when within this fraction of the body's μ (the
+Earth-environment models accept the Earth within the same 1 %)."""
+
+
+@dataclass(frozen=True)
+class RunStates:
+    """The states of one run, as recorded (SI, NumPy).
+
+    Attributes
+    ----------
+    scenario_name : str
+    names : tuple of str
+        Spacecraft names, in the run's order (n of them).
+    t_s : ndarray, shape (T,)
+        Sample times since t = 0, s.
+    epoch : numpy.datetime64
+        UTC date-time of t = 0 (microseconds).
+    epoch_note : str
+        Where the epoch comes from (written as a comment in each file).
+    center_name : str or None
+        CCSDS ``CENTER_NAME`` of the central body (``EARTH``, ``SUN``); None without ``[orbit]``,
+        or for a body that is neither.
+    mu_m3_s2 : float or None
+        The central body's gravitational parameter, m³/s² (None without ``[orbit]``).
+    r_eci_m, v_eci_m_s : ndarray, shape (T, n, 3), or None
+        Position, m, and velocity, m/s, inertial (ECI) axes, origin the central body; None for
+        a run without ``[orbit]``.
+    q_bi : ndarray, shape (T, n, 4), or None
+        Attitude, scalar first, Hamilton, body to inertial (``v_i = q ⊗ v_b ⊗ q*``); None for a
+        run without attitude quaternions (the linearised small-angle model).
+    """
+
+    scenario_name: str
+    names: tuple
+    t_s: np.ndarray
+    epoch: np.datetime64
+    epoch_note: str
+    center_name: str | None
+    mu_m3_s2: float | None
+    r_eci_m: np.ndarray | None
+    v_eci_m_s: np.ndarray | None
+    q_bi: np.ndarray | None
+
+
+def open_dataset(source):
+    """The run's dataset: ``source`` is a run folder (``coopsat run``; its ``result.nc``) or
+    anything with a ``dataset`` (a :class:`coopsat.Result`).
+
+    Raises
+    ------
+    ExportError
+        A folder without ``result.nc``, or a file that is not a readable netCDF.
+    """
+    if hasattr(source, "dataset"):
+        return source.dataset
+    path = Path(source) / "result.nc"
+    if not path.is_file():
+        raise ExportError(f"{source}: not a run folder (no result.nc; write one with coopsat run)")
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            return ds.load()
+    except (OSError, ValueError) as err:
+        raise ExportError(f"{path}: cannot be read as a run's result ({err})") from None
+
+
+def _epoch(orbit):
+    """UTC epoch of t = 0 from the resolved ``[orbit]`` table (None: attitude only) and a note.
+
+    An attitude-only run has no date: its t = 0 is written as the default ``epoch_utc`` of
+    ``[orbit]`` (docs/scenarios.md), and the note says so.
+    """
+    if orbit is None:
+        from coopsat.scenarios.schema import Orbit
+
+        iso, note = Orbit.model_fields["epoch_utc"].default, "no [orbit]: t = 0 written as the default epoch"
+    else:
+        iso, note = orbit["epoch_utc"], "t = 0 is [orbit] epoch_utc"
+    when = datetime.fromisoformat(iso)
+    when = when.replace(tzinfo=timezone.utc) if when.tzinfo is None else when.astimezone(timezone.utc)
+    return np.datetime64(when.replace(tzinfo=None), "us"), f"{note} {iso} (UTC)"
+
+
+def _center_name(mu_m3_s2):
+    """CCSDS ``CENTER_NAME`` of the body whose μ is ``mu_m3_s2``, m³/s², or None."""
+    for name, mu in CENTRAL_BODIES.items():
+        if abs(mu_m3_s2 / mu - 1.0) <= MU_MATCH_RTOL:
+            return name
+    return None
+
+
+def _values(ds, name):
+    return None if name not in ds else np.asarray(ds[name].values, dtype=np.float64)
+
+
+def read_states(source):
+    """Read a run (folder or :class:`coopsat.Result`) into :class:`RunStates`.
+
+    Raises
+    ------
+    ExportError
+        Not a run folder, or a dataset without its resolved scenario (``scenario_toml``).
+    """
+    ds = open_dataset(source)
+    if "scenario_toml" not in ds.attrs:
+        raise ExportError(f"{source}: the result has no scenario_toml attribute (not written by coopsat run)")
+    orbit = tomllib.loads(ds.attrs["scenario_toml"]).get("orbit")
+    epoch, note = _epoch(orbit)
+    mu = None if orbit is None else float(orbit["mu_m3_s2"])
+    return RunStates(
+        scenario_name=str(ds.attrs.get("scenario_name", "run")),
+        names=tuple(str(n) for n in ds["spacecraft"].values),
+        t_s=np.asarray(ds["time"].values, dtype=np.float64),
+        epoch=epoch,
+        epoch_note=note,
+        center_name=None if mu is None else _center_name(mu),
+        mu_m3_s2=mu,
+        r_eci_m=_values(ds, "r_eci"),
+        v_eci_m_s=_values(ds, "v_eci"),
+        q_bi=_values(ds, "q"),
+    )
+
+
+def epochs_iso(run):
+    """ISO-8601 UTC date-time of every sample, to the microsecond: shape (T,) of str."""
+    offsets = np.round(run.t_s * 1e6).astype(np.int64).astype("timedelta64[us]")
+    return np.datetime_as_string(run.epoch + offsets, unit="us")
+
+
+def require_positions(run, what):
+    """Refuse a run without positions, or one about a body no standard names.
+
+    Parameters
+    ----------
+    what : str
+        The format, for the message (``"an OEM"``).
+    """
+    if run.r_eci_m is None:
+        raise ExportError(f"{run.scenario_name}: {what} needs positions and this run has none "
+                          "(attitude only: no [orbit]); export its attitude with --format aem")
+    if run.center_name is None:
+        raise ExportError(f"{run.scenario_name}: {what} needs a named central body and [orbit] mu_m3_s2 = "
+                          f"{run.mu_m3_s2:g} m^3/s^2 is neither the Earth's nor the Sun's")
+
+
+def require_attitude(run, what):
+    """Refuse a run without attitude quaternions (the small-angle model records ``angle``)."""
+    if run.q_bi is None:
+        raise ExportError(f"{run.scenario_name}: {what} needs attitude quaternions and this run records none "
+                          "(its attitude model is the linearised small-angle one)")

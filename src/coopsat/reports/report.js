@@ -39,7 +39,7 @@
   function at(f, i, c) { return pos[(f * n + i) * 3 + c]; }
 
   function sphere(radius) {
-    const x = [], y = [], z = [];
+    const x = [], y = [], z = [], flat = [];
     for (let a = 0; a <= 24; a++) {
       const lat = -Math.PI / 2 + Math.PI * a / 24;
       const rx = [], ry = [], rz = [];
@@ -49,10 +49,11 @@
         ry.push(radius * Math.cos(lat) * Math.sin(lon));
         rz.push(radius * Math.sin(lat));
       }
-      x.push(rx); y.push(ry); z.push(rz);
+      x.push(rx); y.push(ry); z.push(rz); flat.push(rx.map(() => 0));
     }
-    return { type: "surface", x: x, y: y, z: z, showscale: false, opacity: 0.85, hoverinfo: "skip",
-      colorscale: [[0, "#3b6fb6"], [1, "#7fb2e5"]], name: scene.central_body[0] };
+    // one colour, translucent: a spacecraft behind the body stays visible
+    return { type: "surface", x: x, y: y, z: z, surfacecolor: flat, cmin: 0, cmax: 1, showscale: false, opacity: 0.45,
+      hoverinfo: "skip", colorscale: [[0, "#5b8fd6"], [1, "#5b8fd6"]], name: scene.central_body[0] };
   }
 
   function staticTraces() {
@@ -110,10 +111,18 @@
   const firstDynamic = dynamicTraces(0);
   const dynamicIndex = firstDynamic.map((_, k) => nStatic + k);
   const title = (t) => ({ text: t });
+
+  // With a central body, look from the spacecraft's side of it (their mean direction at t = 0).
+  function cameraEye() {
+    if (scene.central_body === null) return { x: 1.25, y: 1.25, z: 1.25 };
+    const mean = [0, 1, 2].map((c) => names.reduce((sum, _, i) => sum + at(0, i, c), 0) / n);
+    const norm = Math.hypot(mean[0], mean[1], mean[2]) || 1;
+    return { x: 1.6 * mean[0] / norm, y: 1.6 * mean[1] / norm, z: 1.6 * mean[2] / norm + 0.4 };
+  }
   Plotly.newPlot(sceneDiv, staticTraces().concat(firstDynamic), {
     margin: { l: 0, r: 0, t: 30, b: 0 }, uirevision: "keep", legend: { x: 0, y: 1 },
     title: { text: scene.frame, font: { size: 14 } },
-    scene: { aspectmode: "data", xaxis: { title: title(scene.axis_titles[0]) },
+    scene: { aspectmode: "data", camera: { eye: cameraEye() }, xaxis: { title: title(scene.axis_titles[0]) },
       yaxis: { title: title(scene.axis_titles[1]) }, zaxis: { title: title(scene.axis_titles[2]) } },
   }, CONFIG);
 

@@ -140,11 +140,50 @@ def work(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def reference(work):
-    """The campaign run once with a LocalCluster of one worker."""
-    done = coopsat("campaign", "run", "camp.toml", "--out", "ref", "--workers", "1", "-q", cwd=work)
+    """The campaign run once with a LocalCluster of one worker, its progress on a pipe."""
+    done = coopsat("campaign", "run", "camp.toml", "--out", "ref", "--workers", "1", cwd=work)
     assert done.returncode == 0, done.stderr
     assert f"{RUNS} runs in {BATCHES} batches (0 already on disk); 0 failed" in done.stdout
+    (work / "ref.stderr").write_text(done.stderr)
     return work / "ref"
+
+
+def test_progress_on_a_pipe_is_a_plain_line_per_tenth(work, reference):
+    err = (work / "ref.stderr").read_text()
+    assert "\r" not in err  # no tqdm bar redrawn into a log
+    lines = [line for line in err.splitlines() if line.startswith("campaign: ")]
+    assert lines == [f"campaign: {25 * k} % ({2 * k}/{RUNS} runs)" for k in range(1, 5)], err
+
+
+@pytest.mark.slow  # long: runs in CI's second pytest pass (README)
+def test_quiet_resume_writes_nothing_on_stderr_and_records_each_calls_wall_time(work, reference):
+    import shutil
+
+    out = work / "quiet"
+    shutil.copytree(reference, out)
+    (out / "batches" / f"batch_{BATCHES - 1:06d}.parquet").unlink()
+    done = coopsat("campaign", "run", "camp.toml", "--out", out, "--workers", "1", "-q", cwd=work)
+    assert done.returncode == 0 and f"({BATCHES - 1} already on disk)" in done.stdout, done.stderr
+    assert done.stderr == ""
+    calls = json.loads((out / "calls.json").read_text())
+    assert [c["batches"] for c in calls] == [BATCHES, 1] and all(c["wall_s"] > 0 for c in calls)
+
+
+def test_campaign_list_names_every_bundled_campaign_with_its_description(capsys):
+    from coopsat.workflows.campaign.catalogue import bundled_names, description
+
+    status, out, err = run_main(capsys, ["campaign", "list"])
+    assert status == 0 and err == ""
+    lines = out.splitlines()
+    assert [line.split()[0] for line in lines] == bundled_names() and len(lines) >= 5
+    for name, line in zip(bundled_names(), lines):
+        assert line.endswith(description(name)) and len(description(name)) > 20
+
+
+def test_campaign_run_of_an_unknown_name(tmp_path, capsys):
+    status, out, err = run_main(capsys, ["campaign", "run", "no-such-campaign", "--out", tmp_path / "c", "-q"])
+    assert status == EXIT_BAD_INPUT and out == ""
+    assert "no-such-campaign: neither a campaign file nor a bundled campaign" in one_error_line(err)
 
 
 def test_local_cluster_writes_every_run_once(reference):
@@ -241,7 +280,7 @@ def test_sigkill_then_resume_runs_every_run_exactly_once(work, reference):
         again = (batches / name).stat()
         assert (again.st_ino, again.st_mtime_ns, again.st_size) == (st.st_ino, st.st_mtime_ns, st.st_size)
     visible = sorted(str(p.relative_to(out)) for p in out.rglob("*") if not p.name.startswith("."))
-    assert visible == sorted(["batches", "campaign.json", *[f"batches/batch_{b:06d}.parquet" for b in range(BATCHES)]])
+    assert visible == sorted(["batches", "campaign.json", "calls.json", *[f"batches/batch_{b:06d}.parquet" for b in range(BATCHES)]])
     assert_same_rows(reference, out)
 
 

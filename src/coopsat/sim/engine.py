@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass, replace
 
 from coopsat.core import runtime
+from coopsat.core.progress import progress_bar
 
 import jax
 import jax.numpy as jnp
@@ -195,10 +196,9 @@ def _programs(system, n_records, chunk, batch):
 
 
 def _progress_bar(n_records):
-    """A progress bar over the record intervals; it appears only once a run has taken 2 s."""
-    from tqdm.auto import tqdm
-
-    return tqdm(total=n_records, unit="rec", delay=2.0, leave=False, desc="simulating")
+    """Progress over the record intervals (a bar on a terminal, a line per tenth in a log); it
+    appears only once a run has taken 2 s."""
+    return progress_bar(n_records, "simulating", "records", delay=2.0, leave=False)
 
 
 def _run_chunks(programs, system, n_records, chunk, t_s, *, batched, names, cancel, bar):
@@ -283,7 +283,8 @@ def simulate_as_built(system, n_records, record_interval_s, *, batched=False, pr
     batched : bool
         ``vmap`` over the leading axis of every data leaf of ``system``.
     progress : bool
-        Show a progress bar (it appears only once a run has taken 2 s).
+        Show progress on stderr: a bar on a terminal, a line per tenth otherwise
+        (:func:`coopsat.core.progress.progress_bar`); it appears only once a run has taken 2 s.
     names : sequence of str, optional
         Spacecraft names, for error messages.
     every_core : bool

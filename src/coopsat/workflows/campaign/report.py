@@ -1,12 +1,15 @@
 """``coopsat campaign report DIR``: statistics, failures and sensitivities of a campaign, in one
 self-contained HTML page (figures embedded) beside its PNGs.
 
-Statistics per metric over the runs that finished with it (count, mean, σ, min, P1, P5, P50,
-P95, P99, max); the failed runs with their reason and parameters; and for each metric the
-dispersed parameters it is most sensitive to, by Spearman rank correlation over the runs
-(each component of a vector parameter on its own); and, for every time series the campaign
-kept, the envelope over the runs (mean, ±3σ, min–max) of its size: the norm over its
-components, the largest over spacecraft.
+A summary first (the campaign, its runs and failures, the headline metrics with mean ± σ and
+how many runs reached them, the wall time of its calls); then per metric over the ok runs: in
+how many it was reached (a finite number; None, a time never reached, is not), and over those
+mean, σ, min, P1, P5, P50, P95, P99, max; the failed runs with their reason and parameters; for
+each metric the dispersed parameters it is most sensitive to, by Spearman rank correlation over
+the runs (each component of a vector parameter on its own); and, for every time series the
+campaign kept, the envelope over the runs (mean, ±3σ stopped at 0, min–max) of its size: the
+norm over its components, the largest over spacecraft. Every axis names its unit, taken from
+the name's suffix (:func:`unit_of`) or, for a time series, from what the run recorded.
 """
 
 import base64
@@ -17,28 +20,108 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.workflows.campaign.runner import MARKER, read_results, read_series
+from coopsat.workflows.campaign.runner import MARKER, read_calls, read_results, read_series
 from coopsat.workflows.campaign.spec import CampaignError
 from coopsat.workflows.folders import atomic_folder
 
 FIXED = ("run_id", "status", "reason", "seed", "params")
 PERCENTILES = (1.0, 5.0, 50.0, 95.0, 99.0)
+HEADLINE_MAX = 6
+"""Most metrics in the summary above the full table."""
+
+UNIT_SUFFIXES = {
+    "_rad_s_sqrt_s": "rad/s/√s", "_m3_s2": "m³/s²", "_rad_s": "rad/s", "_m_s": "m/s", "_1_s": "1/s",
+    "_kgm2": "kg·m²", "_nms": "N·m·s", "_am2": "A·m²", "_ns": "N·s", "_nm": "N·m", "_arcsec": "arcsec",
+    "_deg": "deg", "_rad": "rad", "_kg": "kg", "_km": "km", "_s": "s", "_m": "m", "_n": "N",
+    "_percent": "%", "_probability": "1", "_bits": "bits", "_firings": "firings",
+}
+"""A name's unit from its suffix (coopsat's names end in their unit: docs/scenarios.md)."""
+
+
+def unit_of(name):
+    """The unit a metric's or a scenario field's name ends in (``"s"`` for ``sync_time_s``,
+    ``"rad/s"`` for ``spacecraft.0.omega_b_rad_s[2]``), or None when it names none.
+
+    A field path counts by its last key, a vector's component (``[i]``) aside. One trailing
+    qualifier may follow the unit (``position_error_3sigma_m_dep1``,
+    ``switch_convergence_s_reference``). The longest matching suffix wins (``_rad_s``, not
+    ``_s``)."""
+    key = name.split("[")[0].rsplit(".", 1)[-1]
+    for stem in (key, key.rsplit("_", 1)[0]):
+        for suffix in sorted(UNIT_SUFFIXES, key=len, reverse=True):
+            if stem.endswith(suffix) and len(stem) > len(suffix):
+                return UNIT_SUFFIXES[suffix]
+    return None
+
+
+def axis_label(name, unit=None):
+    """``name (unit)`` for a figure's axis, the unit from the name when not given."""
+    unit = unit or unit_of(name)
+    return f"{name} ({unit or 'unit not in its name'})"
+
+
+def number(x):
+    """A statistic for the page: 4 significant digits, ``0`` for zero, ``—`` for none."""
+    if x is None:
+        return "—"
+    return "0" if x == 0 else f"{x:.4g}"
+
+
+def mean_and_spread(v):
+    """Mean and sample standard deviation (ddof 1) of ``v``, (k,) finite, k ≥ 1.
+
+    Equal values give their value and exactly 0 (summing them in floating point would leave
+    a spread of rounding noise, 1e-18 of nothing); a single value has σ 0; the mean is kept
+    within [min, max], which rounding can also leave."""
+    lo, hi = float(v.min()), float(v.max())
+    if lo == hi:
+        return lo, 0.0
+    return min(max(float(v.mean()), lo), hi), float(v.std(ddof=1))
+
+
+def metric_names(rows):
+    """Every metric any row has, in the order the runs report them."""
+    return [k for k in dict.fromkeys(k for r in rows for k in r) if k not in FIXED]
 
 
 def statistics(rows):
-    """Per metric: ``n``, ``mean``, ``std``, ``min``, ``p1`` … ``p99``, ``max`` over the runs
-    that have it (finite). Metrics no run has are left out."""
-    names = [k for k in dict.fromkeys(k for r in rows for k in r) if k not in FIXED]
+    """Per metric over ``rows`` (the ok runs): ``runs`` (how many rows), ``n`` (how many have
+    it as a finite number: it was reached), ``nonfinite`` (how many have it infinite or NaN,
+    an unbounded margin), then ``mean``, ``std``, ``min``, ``p1`` … ``p99``, ``max`` over those
+    ``n`` (None when n = 0). A metric that is None in a run (a time never reached) counts as
+    not reached there; one none of the runs reached is kept, with n = 0."""
     out = {}
-    for name in names:
-        v = np.array([r.get(name) for r in rows if r.get(name) is not None], dtype=float)
-        v = v[np.isfinite(v)]
-        if v.size == 0:
-            continue
-        out[name] = {"n": int(v.size), "mean": float(v.mean()), "std": float(v.std(ddof=1)) if v.size > 1 else 0.0,
-                     "min": float(v.min()), **{f"p{p:g}": float(x) for p, x in zip(PERCENTILES, np.percentile(v, PERCENTILES))},
-                     "max": float(v.max())}
+    for name in metric_names(rows):
+        given = np.array([r[name] for r in rows if r.get(name) is not None], dtype=float)
+        v = given[np.isfinite(given)]
+        s = {"runs": len(rows), "n": int(v.size), "nonfinite": int(given.size - v.size)}
+        if v.size:
+            mean, std = mean_and_spread(v)
+            s.update(mean=mean, std=std, min=float(v.min()),
+                     **{f"p{p:g}": float(x) for p, x in zip(PERCENTILES, np.percentile(v, PERCENTILES))}, max=float(v.max()))
+        else:
+            s.update(dict.fromkeys(["mean", "std", "min", *(f"p{p:g}" for p in PERCENTILES), "max"]))
+        out[name] = s
     return out
+
+
+def reached(s):
+    """``reached in k of N runs`` of one metric's :func:`statistics`."""
+    note = f" ({s['nonfinite']} not finite)" if s["nonfinite"] else ""
+    return f"reached in {s['n']} of {s['runs']} runs{note}"
+
+
+def headline_metrics(stats, scenario_toml):
+    """The few metrics the summary shows: those the scenario's ``[[published]]`` numbers name
+    (the paper's own figures), else those the dispersions moved (σ > 0, or not reached in
+    every run); at most :data:`HEADLINE_MAX`, in table order when not published."""
+    import tomllib
+
+    published = [p.get("quantity") for p in tomllib.loads(scenario_toml).get("published", [])]
+    names = [q for q in dict.fromkeys(published) if q in stats]
+    if not names:
+        names = [k for k, s in stats.items() if s["n"] < s["runs"] or (s["std"] or 0.0) > 0]
+    return names[:HEADLINE_MAX]
 
 
 def parameter_columns(rows):
@@ -62,7 +145,7 @@ def sensitivities(rows, top=3):
     ok = [r for r in rows if r["status"] == "ok"]
     params = parameter_columns(ok)
     out = {}
-    for name in statistics(ok):
+    for name in metric_names(ok):
         y = np.array([np.nan if r.get(name) is None else r[name] for r in ok], dtype=float)
         found = []
         for p, x in params.items():
@@ -76,23 +159,63 @@ def sensitivities(rows, top=3):
 
 
 def series_sizes(series):
-    """Per kept variable, its size over time for every run, ``(runs, T)``: the norm over its
-    last (component) dimension, then the largest over the remaining ones (spacecraft)."""
+    """Per kept variable, its size over time for every run, ``(runs, T)``: the Euclidean norm
+    over its component dimensions (|x| for a scalar), then the largest over spacecraft. A size
+    is never negative (the envelope's band stops at 0)."""
     out = {}
     for name, da in series.data_vars.items():
-        v = np.asarray(da.transpose("run", "time", ...).values, dtype=float)
-        if v.ndim > 2:
-            v = np.linalg.norm(v, axis=-1)
-        while v.ndim > 2:
-            v = np.nanmax(v, axis=-1)
-        out[name] = v
+        per_craft = "spacecraft" in da.dims
+        components = [d for d in da.dims if d not in ("run", "time", "spacecraft")]
+        v = np.asarray(da.transpose("run", "time", *(["spacecraft"] if per_craft else []), *components).values, dtype=float)
+        v = np.linalg.norm(v.reshape(*v.shape[:2 + per_craft], -1), axis=-1)
+        out[name] = np.nanmax(v, axis=-1) if per_craft else v
     return out
+
+
+def series_label(da):
+    """The y label of a kept variable's size (:func:`series_sizes`), with the unit the run
+    recorded (campaign folders from before units were kept say so)."""
+    where = ", largest over spacecraft" if "spacecraft" in da.dims else ""
+    return f"|{da.name}|{where} ({da.attrs.get('units') or 'unit not stored'})"
 
 
 def _png(fig):
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
     return buf.getvalue()
+
+
+def summary_html(spec, name, rows, stats, headline, calls):
+    """The summary above the full table: the campaign, its runs and failures, the headline
+    metrics (mean ± σ, how many runs reached them) and the wall time of the calls that ran it."""
+    campaign = spec["campaign"]
+    ok = sum(r["status"] == "ok" for r in rows)
+    wall = (f"{sum(c['wall_s'] for c in calls):.1f} s over {len(calls)} call{'s' * (len(calls) != 1)} of "
+            "<code>campaign run</code>" if calls else "not recorded (a folder from before it was)")
+    about = f": {html.escape(campaign['description'])}" if campaign.get("description") else ""
+    items = [f"<li>Campaign <b>{html.escape(name)}</b>{about}; "
+             f"scenario <code>{html.escape(campaign['scenario'])}</code>; master seed {campaign['master_seed']}.</li>",
+             f"<li>Runs: {len(rows)} of {campaign['runs']} finished, {ok} ok, {len(rows) - ok} failed.</li>",
+             f"<li>Wall time: {wall}.</li>"]
+    for m in headline:
+        st, unit = stats[m], unit_of(m)
+        value = f"{number(st['mean'])} ± {number(st['std'])}{' ' + unit if unit else ''}, " if st["n"] else ""
+        items.append(f"<li><code>{html.escape(m)}</code>: {value}{reached(st)}.</li>")
+    return "<h2>Summary</h2><ul>" + "".join(items) + "</ul>"
+
+
+def statistics_html(stats, sens):
+    """The full table: one row per metric."""
+    keys = ("mean", "std", "min", *(f"p{p:g}" for p in PERCENTILES), "max")
+    head = ("metric", "unit", "reached in", "mean", "σ", "min", *(f"P{p:g}" for p in PERCENTILES), "max",
+            "most sensitive to (Spearman ρ)")
+    out = ["<h2>Statistics</h2><table><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
+    for name, s in stats.items():
+        top = ", ".join(f"{html.escape(p)} ({rho:+.2f})" for p, rho in sens.get(name, []))
+        out.append(f"<tr><td>{html.escape(name)}</td><td>{html.escape(unit_of(name) or '')}</td>"
+                   f"<td>{reached(s).removeprefix('reached in ')}</td>"
+                   + "".join(f"<td>{number(s[k])}</td>" for k in keys) + f"<td>{top}</td></tr>")
+    return "".join(out) + "</table>"
 
 
 def write_report(out_dir):
@@ -103,7 +226,7 @@ def write_report(out_dir):
     Path
         The HTML page.
     """
-    from coopsat.plots.campaign import histogram_figure, scatter_figure
+    from coopsat.plots.campaign import envelope_figure, histogram_figure, scatter_figure
 
     out_dir = Path(out_dir)
     if not (out_dir / MARKER).is_file():
@@ -117,34 +240,26 @@ def write_report(out_dir):
     stats = statistics(ok)
     sens = sensitivities(rows)
     params = parameter_columns(ok)
-    campaign = spec["campaign"]
-    parts = [f"<h1>Campaign: {html.escape(campaign.get('description') or campaign['scenario'])}</h1>",
-             f"<p>Scenario <code>{html.escape(campaign['scenario'])}</code>; {len(rows)} of {campaign['runs']} runs finished "
-             f"({len(ok)} ok, {len(failed)} failed); master seed {campaign['master_seed']}.</p>",
-             "<h2>Statistics</h2><table><tr><th>metric</th>" + "".join(f"<th>{h}</th>" for h in
-             ("n", "mean", "σ", "min", *(f"P{p:g}" for p in PERCENTILES), "max", "most sensitive to (Spearman ρ)")) + "</tr>"]
+    headline = headline_metrics(stats, spec["scenario_toml"])
+    calls = read_calls(out_dir)
+    name = Path(spec.get("campaign_file", "")).stem or spec["campaign"]["scenario"]
+    parts = [f"<h1>Campaign {html.escape(name)}</h1>", summary_html(spec, name, rows, stats, headline, calls),
+             statistics_html(stats, sens)]
     figures = {}
-    for name, s in stats.items():
-        top = ", ".join(f"{html.escape(p)} ({rho:+.2f})" for p, rho in sens.get(name, []))
-        parts.append(f"<tr><td>{html.escape(name)}</td>" + "".join(
-            f"<td>{s[k]:.6g}</td>" if k != "n" else f"<td>{s[k]}</td>"
-            for k in ("n", "mean", "std", "min", *(f"p{p:g}" for p in PERCENTILES), "max")) + f"<td>{top}</td></tr>")
-        v = np.array([r[name] for r in ok if r.get(name) is not None], dtype=float)
-        v = v[np.isfinite(v)]
+    for metric, s in stats.items():
+        y = np.array([np.nan if r.get(metric) is None else r[metric] for r in ok], dtype=float)
+        v = y[np.isfinite(y)]
         if s["n"] > 1 and np.ptp(v) > 0:
-            figures[f"hist_{name}"] = _png(histogram_figure(v, name))
-            if sens.get(name):
-                p, rho = sens[name][0]
-                y = np.array([np.nan if r.get(name) is None else r[name] for r in ok], dtype=float)
-                figures[f"scatter_{name}"] = _png(scatter_figure(params[p], y, p, name, rho))
-    parts.append("</table>")
+            figures[f"hist_{metric}"] = _png(histogram_figure(v, axis_label(metric)))
+            if sens.get(metric):
+                p, rho = sens[metric][0]
+                figures[f"scatter_{metric}"] = _png(scatter_figure(params[p], y, axis_label(p), axis_label(metric), rho))
     series = read_series(out_dir)
     if series is not None:
-        from coopsat.plots.campaign import envelope_figure
-
         t = np.asarray(series["time"].values, dtype=float)
-        for name, v in series_sizes(series).items():
-            figures[f"envelope_{name}"] = _png(envelope_figure(t, v, f"|{name}| (largest over spacecraft)"))
+        for var, v in series_sizes(series).items():
+            # A size (a norm) is never negative: its −3σ band stops at 0.
+            figures[f"envelope_{var}"] = _png(envelope_figure(t, v, series_label(series[var]), floor=0.0))
     parts.append(f"<h2>Failed runs ({len(failed)})</h2>")
     if failed:
         parts.append("<table><tr><th>run</th><th>reason</th><th>parameters</th></tr>" + "".join(
@@ -160,9 +275,12 @@ def write_report(out_dir):
             "body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse;font-size:13px}"
             "td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}td:first-child{text-align:left}</style></head><body>"
             + "\n".join(parts) + "</body></html>\n")
+    summary = {"runs": len(rows), "failed": len(failed), "wall_s": sum(c["wall_s"] for c in calls) if calls else None,
+               "headline": headline}
     with atomic_folder(out_dir / "report", CampaignError) as tmp:
         (tmp / "index.html").write_text(page)
-        (tmp / "statistics.json").write_text(json.dumps({"statistics": stats, "sensitivities": sens}, indent=2) + "\n")
+        (tmp / "statistics.json").write_text(
+            json.dumps({"summary": summary, "statistics": stats, "sensitivities": sens}, indent=2) + "\n")
         for stem, data in figures.items():
             (tmp / f"{stem}.png").write_bytes(data)
     return out_dir / "report" / "index.html"

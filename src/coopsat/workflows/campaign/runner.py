@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from coopsat.core.progress import progress_bar
 from coopsat.workflows import interrupt
 from coopsat.workflows.campaign.spec import (
     Campaign,
@@ -38,6 +39,10 @@ from coopsat.workflows.campaign.spec import (
 
 MARKER = "campaign.json"
 """Written into every campaign folder first: what is being run (a resumed run must match it)."""
+
+CALLS = "calls.json"
+"""The wall time of every call of ``campaign run`` that wrote batches into the folder (one
+killed by SIGKILL leaves none)."""
 
 
 def batch_ids(runs, batch_size):
@@ -140,7 +145,9 @@ def run_batch(job, run_ids):
         import xarray as xr
 
         ids = [k for k in run_ids if k in series]
-        kept = xr.concat([series[k].drop_attrs() for k in ids], dim="run").assign_coords(run=ids)
+        # The run's attributes (its seed, its scenario) go; each variable's own (units, long
+        # name), the same in every run, stay: the report labels its axes with them.
+        kept = xr.concat([series[k].drop_attrs(deep=False) for k in ids], dim="run").assign_coords(run=ids)
         # Text labels (spacecraft names, component letters) go to attributes: Zarr v3 has no
         # specified fixed-width string type.
         labels = [c for c in kept.coords if kept[c].dtype.kind == "U"]
@@ -322,7 +329,7 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     if todo:
         from dask.distributed import as_completed
 
-        bar = None
+        bar, written = None, 0
         client = client_for(workers, scheduler)  # before the folder: an unreachable scheduler leaves nothing
         try:
             interrupt.check()  # a stop while the workers started: nothing written
@@ -330,10 +337,8 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
             on_disk = len(batches) - len(todo)
             interrupt.wrote(out_dir, _resume_note(out_dir, on_disk, len(batches)))
             if progress:
-                from tqdm.auto import tqdm
-
-                bar = tqdm(total=campaign.runs, initial=campaign.runs - sum(len(batches[b]) for b in todo), unit="run",
-                           desc="campaign")
+                bar = progress_bar(campaign.runs, "campaign", "runs",
+                                   initial=campaign.runs - sum(len(batches[b]) for b in todo))
             shared = client.scatter(job, broadcast=True)
             futures = {client.submit(run_batch, shared, batches[b], key=f"batch-{b}-{time.time_ns()}", pure=False): b for b in todo}
             for future in as_completed(futures):
@@ -344,6 +349,7 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
                 with interrupt.holding():  # a finished batch is written whole, even after a signal
                     write_batch(out_dir, b, rows, series)
                     on_disk += 1
+                    written += 1
                     interrupt.wrote(out_dir, _resume_note(out_dir, on_disk, len(batches)))
                 failed += sum(r["status"] != "ok" for r in rows)
                 if bar is not None:
@@ -354,8 +360,33 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
             if bar is not None:
                 bar.close()
             _close(client)
+            if written:
+                _record_call(out_dir, time.perf_counter() - t0, written)
     return {"runs": campaign.runs, "batches": len(batches), "skipped_batches": len(batches) - len(todo), "failed": failed,
             "wall_s": time.perf_counter() - t0, "worker_peak_rss_mb": peak_mb}
+
+
+def _record_call(out_dir, wall_s, batches):
+    """Add a call of :func:`run_campaign` (its wall time, s, and the batches it wrote) to the
+    folder's :data:`CALLS`, which the report sums; written beside and renamed into place."""
+    path = Path(out_dir) / CALLS
+    # A note for the report: a disk that refuses it must not hide the campaign's own outcome
+    # (a full disk's one-line error, a stop), and a damaged file only loses the earlier notes.
+    with contextlib.suppress(OSError, ValueError):
+        calls = json.loads(path.read_text()) if path.is_file() else []
+        tmp = path.with_name(f".{CALLS}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps([*calls, {"wall_s": wall_s, "batches": batches}], indent=1) + "\n")
+        os.replace(tmp, path)
+
+
+def read_calls(out_dir):
+    """The recorded calls of a campaign folder (:func:`_record_call`): list of dicts with
+    ``wall_s`` and ``batches``; empty when none was recorded (a folder from before they were)."""
+    path = Path(out_dir) / CALLS
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return []
 
 
 def _resume_note(out_dir, on_disk, total):

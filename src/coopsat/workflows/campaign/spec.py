@@ -30,6 +30,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from coopsat.scenarios.load import ScenarioError, clip_echo, format_validation_error, load_scenario, resolved_toml
+from coopsat.workflows.campaign.catalogue import bundled_names as bundled_campaign_names
+from coopsat.workflows.campaign.catalogue import bundled_path
 
 MAX_RUNS = 10_000_000
 
@@ -92,20 +94,11 @@ class Campaign(BaseModel):
     description: str = ""
 
 
-def bundled_campaign_names():
-    """Names of the campaigns shipped with coopsat."""
-    from importlib.resources import files
-
-    return sorted(p.name[:-5] for p in files("coopsat.workflows.campaign").joinpath("bundled").iterdir() if p.name.endswith(".toml"))
-
-
 def bundled_campaign(name_or_path):
     """A campaign file's path: the path given, or a bundled campaign by name."""
-    from importlib.resources import files
-
     path = Path(name_or_path)
     if not path.exists() and str(name_or_path) in bundled_campaign_names():
-        return Path(str(files("coopsat.workflows.campaign").joinpath("bundled", f"{name_or_path}.toml")))
+        return Path(str(bundled_path(name_or_path)))
     return path
 
 
@@ -128,6 +121,9 @@ def load_campaign(path):
     CampaignError
     """
     path = bundled_campaign(path)
+    if not path.exists() and path.suffix != ".toml" and len(path.parts) == 1:
+        raise CampaignError(f"{clip_echo(str(path))}: neither a campaign file nor a bundled campaign "
+                            "(`coopsat campaign list` names them)")
     try:
         raw = tomllib.loads(path.read_text())
     except OSError as err:

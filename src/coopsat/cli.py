@@ -233,6 +233,16 @@ def _cmd_tune(args):
     return 0
 
 
+def _cmd_campaign_list(args):
+    from coopsat.workflows.campaign.catalogue import bundled_names, description
+
+    names = bundled_names()
+    width = max(len(n) for n in names)
+    for name in names:
+        print(f"{name:<{width}}  {description(name)}")
+    return 0
+
+
 def _cmd_campaign_run(args):
     from coopsat.workflows.campaign.runner import run_campaign
 
@@ -446,13 +456,15 @@ def _add_tune(sub):
 def _add_campaign(sub):
     camp = sub.add_parser("campaign", help="Monte Carlo campaigns: dispersed runs on Dask, resumable (docs/campaigns.md)")
     camp_sub = camp.add_subparsers(dest="campaign_command", required=True)
+    camp_sub.add_parser("list", help="bundled campaigns with a one-line description").set_defaults(func=_cmd_campaign_list)
     c_run = camp_sub.add_parser("run", help="run (or resume) a campaign file into a folder")
-    c_run.add_argument("file", help="campaign .toml")
+    c_run.add_argument("file", help="campaign .toml, or a bundled campaign's name (coopsat campaign list)")
     c_run.add_argument("--out", required=True, metavar="DIR", help="campaign folder (resumed when it holds this campaign)")
     where = c_run.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, help="local worker processes (default 1)")
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="an existing Dask scheduler")
-    c_run.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    c_run.add_argument("--quiet", "-q", action="store_true",
+                       help="no progress (a bar on a terminal, a line per tenth of the runs otherwise)")
     c_run.set_defaults(func=_cmd_campaign_run)
     c_rep = camp_sub.add_parser("replay", help="run one stored run again alone and compare it bit for bit")
     c_rep.add_argument("dir", help="campaign folder")

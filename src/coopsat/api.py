@@ -132,6 +132,35 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
     return result
 
 
+def plot(run_dir: str | Path, what: Sequence[str] | None = None, out: str | Path | None = None) -> list[Path]:
+    """Draw a run folder's figures again from its ``result.nc`` (``coopsat plot``).
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        A run folder written by ``coopsat run``.
+    what : sequence of str, optional
+        Figures by file stem (``attitude``, ``torque_sat1``, a paper's ``formation_error`` …);
+        default every figure the run has.
+    out : str or Path, optional
+        Folder for the PNG files; default the run folder.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Raises
+    ------
+    coopsat.workflows.pipeline.PlotError
+        No record in the folder, or a name the run has no figure of (the message lists those
+        it has).
+    """
+    from coopsat.workflows.pipeline import plot_run
+
+    return plot_run(run_dir, what, out)
+
+
 @dataclass(frozen=True)
 class Batch:
     """Runs made together (:func:`run_batch`).

@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|export|margin|design|topology|tradeoff|sweep|tune|campaign|bench``.
+"""Command line: ``coopsat list|show|validate|run|export|plot|margin|design|topology|tradeoff|sweep|tune|campaign|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -45,7 +45,7 @@ def configure_process(cache=True):
 
 def _input_errors():
     from coopsat.network.topology import GraphError
-    from coopsat.workflows.pipeline import RunFolderError
+    from coopsat.workflows.pipeline import PlotError, RunFolderError
     from coopsat.scenarios.load import ScenarioError
     from coopsat.sim.engine import NonFiniteStateError
     from coopsat.workflows.sweep import SweepError
@@ -58,7 +58,7 @@ def _input_errors():
     from coopsat.exports.run import ExportError
 
     return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError,
-            PairError, PluginError, NativeUnavailableError, ExportError)
+            PairError, PluginError, NativeUnavailableError, ExportError, PlotError)
 
 
 def _cmd_list(args):
@@ -128,6 +128,14 @@ def _cmd_export(args):
     from coopsat.api import export
 
     print(f"wrote {export(args.run_dir, args.format, args.out)}")
+    return 0
+
+
+def _cmd_plot(args):
+    from coopsat.api import plot
+
+    paths = plot(args.run_dir, what=args.what, out=args.out)
+    print(f"wrote {', '.join(str(p) for p in paths)}")
     return 0
 
 
@@ -209,8 +217,8 @@ def _cmd_pair(args):
     if args.out:
         from coopsat.plots.pair import pair_figure
 
-        write_pair_folder(args.out, result, pair_figure(result.names, result.series))
-        print(f"wrote {args.out}/pair.md, pair.nc, pair.png, pair.json")
+        write_pair_folder(args.out, result, pair_figure(result.names, result.series) if result.series else None)
+        print(f"wrote {args.out}/pair.md, {'pair.nc, pair.png, ' if result.series else ''}pair.json")
     return 0
 
 
@@ -334,6 +342,18 @@ def _add_export(sub):
                      help="the file (a folder for an OEM or AEM of several spacecraft); default RUN_DIR/<scenario>.<format> "
                           "or RUN_DIR/<scenario>-<format>/")
     exp.set_defaults(func=_cmd_export)
+
+
+def _add_plot(sub):
+    plt = sub.add_parser(
+        "plot", help="draw a run folder's figures again from its result.nc",
+        description="Redraw the figures of a run folder (the standard ones and its papers') from result.nc and the "
+                    "scenario kept in it; no simulation is run.")
+    plt.add_argument("run_dir", help="a run folder written by coopsat run")
+    plt.add_argument("--what", nargs="+", metavar="NAME",
+                     help="figures to draw, by file stem (attitude, rates, torque_sat1, …); default all")
+    plt.add_argument("--out", metavar="DIR", help="folder for the PNG files (default RUN_DIR)")
+    plt.set_defaults(func=_cmd_plot)
 
 
 def _add_margin(sub):
@@ -489,7 +509,7 @@ def build_parser():
     """The argument parser (exposed for tests and documentation)."""
     p = argparse.ArgumentParser(prog="coopsat", description="Cooperative control of spacecraft formations.")
     sub = p.add_subparsers(dest="command", required=True)
-    for add in (_add_list, _add_show, _add_validate, _add_run, _add_export, _add_margin, _add_design, _add_topology, _add_tradeoff, _add_sweep, _add_pair, _add_tune, _add_campaign, _add_bench):
+    for add in (_add_list, _add_show, _add_validate, _add_run, _add_export, _add_plot, _add_margin, _add_design, _add_topology, _add_tradeoff, _add_sweep, _add_pair, _add_tune, _add_campaign, _add_bench):
         add(sub)
     return p
 

@@ -1,9 +1,16 @@
-"""Standard figures of a closed-loop run: attitude, rates, torque, synchronisation error.
+"""Standard figures of a closed-loop run, drawn from the catalogue of its time series.
+
+Only what the run has (:func:`coopsat.analysis.series.run_series`): attitude as error angles in
+degrees (never raw quaternion components), rates, the torque of the first spacecraft (applied
+and commanded, both inside the axes), synchronisation error, wheels when there are wheels,
+thrusters when there are thrusters, relative motion when positions are simulated.
 
 Pure functions from the run's :class:`xarray.Dataset` (see
 :func:`coopsat.sim.recorder.to_dataset`) to :class:`matplotlib.figure.Figure`. Figures are
 built with the object-oriented API only (no pyplot), so no backend or global state is touched
-and nothing needs closing; :meth:`~matplotlib.figure.Figure.savefig` renders with Agg.
+and nothing needs closing; :meth:`~matplotlib.figure.Figure.savefig` renders with Agg. Every
+axis label gives its unit in parentheses, ``time (s)`` (:func:`axis_label`), as the paper
+modules' figures do.
 """
 
 from pathlib import Path
@@ -11,20 +18,16 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from coopsat.analysis.metrics import (
-    pairwise_attitude_error_deg,
-    pairwise_rate_difference_rad_s,
-    quat_angle_between_deg,
-)
+from coopsat.analysis.series import run_series, series_by_name
 
 LOG_FLOOR = 1e-12
 """Errors are clipped to this floor so exact zeros (e.g. identical initial states) stay on a
 log axis."""
 
 
-def _values(ds, name, *dims):
-    # Explicit transpose: the plotting code indexes by position.
-    return ds[name].transpose(*dims).values
+def axis_label(what, unit):
+    """The one unit style of every axis: ``what (unit)``; a count (unit ``1``) has none."""
+    return what if unit in ("1", "") else f"{what} ({unit})"
 
 
 def _names(ds):
@@ -44,11 +47,11 @@ label of every axes before drawing and was half the time of writing a run's figu
 
 
 def _legend_outside(fig, ax):
-    """The legend of ``ax``'s lines in the figure's right margin, never over the data."""
-    width_in, height_in = fig.get_size_inches()
+    """The legend of ``ax``'s lines in the figure's right margin beside ``ax``, never over the
+    data."""
+    width_in, _ = fig.get_size_inches()
     right = 1.0 - MARGINS_IN["right"] / width_in
-    top = 1.0 - MARGINS_IN["top"] / height_in
-    fig.legend(*ax.get_legend_handles_labels(), loc="upper left", bbox_to_anchor=(right + 0.1 / width_in, top),
+    fig.legend(*ax.get_legend_handles_labels(), loc="upper left", bbox_to_anchor=(right + 0.1 / width_in, ax.get_position().y1),
                fontsize="small")
 
 
@@ -76,177 +79,192 @@ def _stacked(ds, n_axes, what):
     axes = fig.subplots(n_axes, 1, sharex=True, squeeze=False, gridspec_kw=dict(
         left=m["left"] / width_in, right=1.0 - m["right"] / width_in, top=1.0 - m["top"] / height_in,
         bottom=m["bottom"] / height_in, hspace=m["gap"] * n_axes / (height_in - m["top"] - m["bottom"])))[:, 0]
-    axes[-1].set_xlabel(f"time [{ds['time'].attrs.get('units', 's')}]")
+    axes[-1].set_xlabel(axis_label("time", ds["time"].attrs.get("units", "s")))
     fig.suptitle(_title(ds, what))
     return fig, axes
 
 
-def attitude_figure(ds):
-    """Attitude quaternion components of every spacecraft against time.
+def _draw(ax, series, label=None, **select):
+    """One series on ``ax``: a line per spacecraft (per wheel once a spacecraft is selected), a
+    single line for a formation-wide series; log scale, floor and threshold as the series says.
 
     Parameters
     ----------
-    ds : xarray.Dataset
-        Run record with ``q`` (time, spacecraft, q_component), dimensionless, scalar first;
-        ``q_ref`` (time, q_component) is drawn as a thick black "reference" line if present.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Four stacked axes, q0..q3, one line per spacecraft. Quaternions are plotted as
-        recorded (q and −q are the same attitude; no sign is chosen here).
+    series : coopsat.analysis.series.Series
+    label : str, optional
+        Axis label in place of the series' own (the unit is added).
+    **select
+        Positions to pick along dims, e.g. ``component=0`` or ``spacecraft=1``.
     """
-    q = _values(ds, "q", "time", "spacecraft", "q_component")
-    q_ref = _values(ds, "q_ref", "time", "q_component") if "q_ref" in ds else None
-    t = ds["time"].values
-    fig, axes = _stacked(ds, 4, "attitude quaternion")
-    for k, (ax, comp) in enumerate(zip(axes, ds["q_component"].values)):
-        if q_ref is not None:
-            ax.plot(t, q_ref[:, k], color="k", lw=2.5, label="reference")
-        for i, name in enumerate(_names(ds)):
-            ax.plot(t, q[:, i, k], label=name)
-        ax.set_ylabel(f"{comp} [{ds['q'].attrs['units']}]")
-    _legend_outside(fig, axes[0])
+    values = series.values.isel(select) if select else series.values
+    t = values["time"].values
+    y = values.transpose("time", ...).values.reshape(len(t), -1)
+    names = [str(v) for v in values[values.dims[1]].values] if values.ndim > 1 else [None]
+    # A log axis only where the values span a decade or more: a few degrees read better linear.
+    log = series.log_scale and np.nanmax(y) >= 10.0 * max(np.nanmin(y), 0.0)
+    if log:
+        y = np.maximum(y, LOG_FLOOR)
+    for k, name in enumerate(names):
+        ax.plot(t, y[:, k], label=name)
+    ax.set_ylabel(axis_label(label or series.label, series.unit))
+    if series.threshold is not None:
+        ax.axhline(series.threshold, ls=":", color="k")
+        ax.annotate(f"threshold {series.threshold:g} {series.unit}", (1.0, series.threshold),
+                    xycoords=("axes fraction", "data"), ha="right", va="bottom", fontsize="small")
+    if log:
+        _log_y(ax)
+
+
+def _panels(ds, what, rows, legend_rows=(0,)):
+    """A stacked figure with one panel per (series, label, select) row; the legend of each panel
+    in ``legend_rows`` beside it."""
+    fig, axes = _stacked(ds, len(rows), what)
+    for ax, (series, label, select) in zip(axes, rows):
+        _draw(ax, series, label, **select)
+    for k in legend_rows:
+        if axes[k].get_legend_handles_labels()[1]:
+            _legend_outside(fig, axes[k])
     return fig
 
 
-def _per_axis_figure(ds, name, symbol, what):
-    values = _values(ds, name, "time", "spacecraft", "component")
-    t = ds["time"].values
-    fig, axes = _stacked(ds, 3, what)
-    for k, (ax, comp) in enumerate(zip(axes, ds["component"].values)):
-        for i, sc in enumerate(_names(ds)):
-            ax.plot(t, values[:, i, k], label=sc)
-        ax.set_ylabel(f"{symbol}_{comp} [{ds[name].attrs['units']}]")
-    _legend_outside(fig, axes[0])
-    return fig
+ATTITUDE_ERRORS = ("attitude_error_reference_deg", "attitude_error_desired_deg", "attitude_error_formation_deg")
+"""The per-spacecraft attitude errors the attitude figure draws, those the run has, in order."""
 
 
-def rate_figure(ds):
-    """Body angular rates of every spacecraft against time.
+def attitude_figure(ds, series):
+    """Attitude of every spacecraft as error angles against time.
 
     Parameters
     ----------
     ds : xarray.Dataset
-        Run record with ``omega`` (time, spacecraft, component), rad/s.
+        Run record (time axis, names, title).
+    series : dict of str -> Series
+        The run's catalogue (:func:`coopsat.analysis.series.run_series`, by name).
 
     Returns
     -------
     matplotlib.figure.Figure
-        Three stacked axes, ω_x, ω_y, ω_z, one line per spacecraft.
+        One log-scale panel per attitude error the run has (to the reference, to the desired
+        attitude, to the formation's mean; deg), one line per spacecraft; in the small-angle
+        model, three panels θ_x, θ_y, θ_z (deg).
     """
-    return _per_axis_figure(ds, "omega", "ω", "body angular rate")
+    errors = [series[n] for n in ATTITUDE_ERRORS if n in series]
+    if errors:
+        return _panels(ds, "attitude error", [(s, s.label.replace(" to ", "\nto "), {}) for s in errors])
+    angle = series["attitude_angle_deg"]
+    return _panels(ds, "attitude angle", [(angle, f"θ_{c}", {"component": k}) for k, c in enumerate("xyz")])
 
 
-def angle_figure(ds):
-    """Small attitude angles of every spacecraft against time (small-angle model).
+def rate_figure(ds, series):
+    """Body angular rates of every spacecraft against time: three panels ω_x, ω_y, ω_z (rad/s),
+    one line per spacecraft, and the rate error to the desired rate when the run has one."""
+    rows = [(series["rate_rad_s"], f"ω_{c}", {"component": k}) for k, c in enumerate("xyz")]
+    if "rate_error_rad_s" in series:
+        rows.append((series["rate_error_rad_s"], "rate error\nto desired", {}))
+    return _panels(ds, "body angular rate", rows)
+
+
+COMMAND_OVERLAY_MAX = 2.0
+"""The command shares the applied torque's axes while its peak is at most this many times the
+applied peak; a larger command (saturated, or a sampled-data instability) gets its own panels,
+where it would otherwise squash the applied torque into a flat line."""
+
+
+def _torque_panel(ax, t, values, *, step, color, label):
+    """Mean line of ``values`` (T,) per window, with its min–max band when windowed; returns
+    the (low, high) drawn."""
+    t_w, mean, low, high = _windowed(t, values)
+    windowed = len(t_w) < len(t)
+    if windowed:
+        ax.fill_between(t_w, low, high, step="post" if step else None, color=color, alpha=0.25, lw=0,
+                        label=f"{label} min–max")
+    ax.plot(t_w, mean, drawstyle="steps-post" if step else "default", color=color, lw=1.5 if step else 0.8,
+            ls="-" if step else "--", label=f"{label} mean" if windowed else label)
+    return low.min(), high.max()
+
+
+def torque_figure(ds, series, spacecraft=0):
+    """Applied and commanded torque of one spacecraft against time, both inside the axes.
 
     Parameters
     ----------
     ds : xarray.Dataset
-        Run record with ``angle`` (time, spacecraft, component), rad.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Three stacked axes, θ_x, θ_y, θ_z, one line per spacecraft.
-    """
-    return _per_axis_figure(ds, "angle", "θ", "attitude angle")
-
-
-def torque_figure(ds, spacecraft=0):
-    """Applied and commanded torque of one spacecraft against time.
-
-    Parameters
-    ----------
-    ds : xarray.Dataset
-        Run record with ``torque`` and, when a controller commands torque, ``torque_command``
-        (time, spacecraft, component), N·m.
+        Run record (time axis, names, title).
+    series : dict of str -> Series
+        The run's catalogue; ``torque_n_m`` and, when a controller commands torque,
+        ``torque_command_n_m`` (time, spacecraft, component), N m.
     spacecraft : int or str
         Index along ``spacecraft`` or the spacecraft's name.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Three stacked axes (x, y, z). The applied torque is a step plot (it is the mean over
-        the record interval *starting* at each sample); the command is a thin dashed line. A
-        record longer than :data:`WINDOWS` samples is drawn per window: the mean applied torque
-        and a band from its smallest to its largest sample, and the mean command. The view is
-        scaled to the applied torque: a saturated command runs off the axes, as a thruster's
-        demand does beyond its authority.
+        Three panels (x, y, z): the applied torque as steps (it is the mean over the record
+        interval *starting* at each sample) and the command dashed, y-limits from both. A
+        command more than :data:`COMMAND_OVERLAY_MAX` times the applied peak is drawn in three
+        panels of its own below. A record longer than :data:`WINDOWS` samples is drawn per
+        window: the mean and a band from the smallest to the largest sample.
     """
     names = _names(ds)
     i = names.index(spacecraft) if isinstance(spacecraft, str) else int(spacecraft)
-    torque = _values(ds, "torque", "time", "spacecraft", "component")[:, i]
-    command = _values(ds, "torque_command", "time", "spacecraft", "component")[:, i] if "torque_command" in ds else None
     t = ds["time"].values
-    t_w, mean, low, high = _windowed(t, torque)
-    windowed = len(t_w) < len(t)
-    fig, axes = _stacked(ds, 3, f"torque of {names[i]}" + (f" ({len(t) // len(t_w)}-sample windows)" if windowed else ""))
-    limit = 1.15 * np.abs(torque).max()
-    for k, (ax, comp) in enumerate(zip(axes, ds["component"].values)):
-        if windowed:
-            ax.fill_between(t_w, low[:, k], high[:, k], step="post", color="C0", alpha=0.25, lw=0, label="applied, min–max")
-        ax.plot(t_w, mean[:, k], drawstyle="steps-post", color="C0", label="applied, mean" if windowed else "applied")
-        if command is not None:
-            ax.plot(t_w, _windowed(t, command)[1][:, k], "--", lw=0.8, color="k",
-                    label="commanded, mean" if windowed else "commanded")
-        if limit > 0.0:
-            ax.set_ylim(-limit, limit)
-        ax.set_ylabel(f"τ_{comp} [{ds['torque'].attrs['units']}]")
+    drawn = [(series[n].values.isel(spacecraft=i).transpose("time", "component").values, n == "torque_n_m")
+             for n in ("torque_n_m", "torque_command_n_m") if n in series]
+    peaks = [np.abs(v).max() for v, _ in drawn]
+    own_panels = len(drawn) == 2 and peaks[1] > COMMAND_OVERLAY_MAX * peaks[0]
+    windows = len(t) // len(_windowed(t, t)[0])
+    what = f"torque of {names[i]}" + (f" ({windows}-sample windows)" if windows > 1 else "")
+    fig, axes = _stacked(ds, 6 if own_panels else 3, what)
+    peak = {}  # axes -> largest |torque| drawn on it, band included: the limits hold every line
+    for values, applied in drawn:
+        word = "applied" if applied else "command"
+        panels = axes[3:] if own_panels and not applied else axes[:3]
+        for k, (ax, comp) in enumerate(zip(panels, "xyz")):
+            low, high = _torque_panel(ax, t, values[:, k], step=applied, color="C0" if applied else "k", label=word)
+            peak[ax] = max(peak.get(ax, 0.0), abs(low), abs(high))
+            ax.set_ylabel(axis_label(f"τ_{comp}" + (f"\n{word}" if own_panels else ""), "N m"))
+    for ax, p in peak.items():
+        if p > 0.0:  # symmetric about zero: a torque and its opposite read alike
+            ax.set_ylim(-1.15 * p, 1.15 * p)
     _legend_outside(fig, axes[0])
+    if own_panels:
+        _legend_outside(fig, axes[3])
     return fig
 
 
-def sync_error_figure(ds, attitude_threshold_deg=None, rate_threshold_rad_s=None):
-    """Synchronisation (and, if tracking, reference) errors against time on log axes.
+def sync_error_figure(ds, series):
+    """Synchronisation error of the formation against time on log axes: the largest pairwise
+    attitude error (deg) and rate difference (rad/s), with the ``[analysis]`` thresholds
+    dotted. Values are clipped below at :data:`LOG_FLOOR`."""
+    rows = [(series[n], s, {}) for n, s in (("attitude_spread_deg", "max pairwise\nattitude error"),
+                                            ("rate_spread_rad_s", "max pairwise\nrate difference")) if n in series]
+    return _panels(ds, "synchronisation error", rows, legend_rows=())
 
-    Parameters
-    ----------
-    ds : xarray.Dataset
-        Run record with ``q`` and ``omega``; optional ``q_ref`` adds a third axis.
-    attitude_threshold_deg : float, optional
-        Drawn as a dotted horizontal line on the attitude axes, deg.
-    rate_threshold_rad_s : float, optional
-        Drawn as a dotted horizontal line on the rate axis, rad/s.
 
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Axes: largest pairwise attitude error (deg); largest pairwise rate difference
-        (rad/s); with ``q_ref``, each spacecraft's attitude error to the reference (deg).
-        Values are clipped below at :data:`LOG_FLOOR`.
-    """
-    q = _values(ds, "q", "time", "spacecraft", "q_component")
-    omega = _values(ds, "omega", "time", "spacecraft", "component")
-    t = ds["time"].values
-    tracking = "q_ref" in ds
-    fig, axes = _stacked(ds, 3 if tracking else 2, "synchronisation error")
-    axes[0].plot(t, np.maximum(pairwise_attitude_error_deg(q), LOG_FLOOR))
-    axes[0].set_ylabel("max pairwise\nattitude error [deg]")
-    axes[1].plot(t, np.maximum(pairwise_rate_difference_rad_s(omega), LOG_FLOOR))
-    axes[1].set_ylabel("max pairwise\nrate difference [rad/s]")
-    attitude_axes = [axes[0]]
-    if tracking:
-        q_ref = _values(ds, "q_ref", "time", "q_component")
-        error = quat_angle_between_deg(q, q_ref[:, None, :])
-        for i, name in enumerate(_names(ds)):
-            axes[2].plot(t, np.maximum(error[:, i], LOG_FLOOR), label=name)
-        axes[2].set_ylabel("error to\nreference [deg]")
-        _legend_outside(fig, axes[2])
-        attitude_axes.append(axes[2])
-    if attitude_threshold_deg is not None:
-        for ax in attitude_axes:
-            ax.axhline(attitude_threshold_deg, ls=":", color="k")
-            ax.annotate(f"threshold {attitude_threshold_deg:g}°", (1.0, attitude_threshold_deg), xycoords=("axes fraction", "data"),
-                        ha="right", va="bottom", fontsize="small")
-    if rate_threshold_rad_s is not None:
-        axes[1].axhline(rate_threshold_rad_s, ls=":", color="k")
-        axes[1].annotate(f"threshold {rate_threshold_rad_s:g} rad/s", (1.0, rate_threshold_rad_s),
-                         xycoords=("axes fraction", "data"), ha="right", va="bottom", fontsize="small")
-    for ax in axes:
-        _log_y(ax)
-    return fig
+def wheel_figure(ds, series):
+    """Reaction wheels against time: each spacecraft's wheel speeds (rad/s, a line per wheel),
+    then the wheels' momentum ‖h‖ of every spacecraft (N m s)."""
+    speed = series.get("wheel_speed_rad_s")
+    rows = [(speed, f"{name}\nwheel speed", {"spacecraft": k}) for k, name in enumerate(_names(ds))] if speed else []
+    if "wheel_momentum_n_m_s" in series:
+        rows.append((series["wheel_momentum_n_m_s"], "wheel\nmomentum ‖h‖", {}))
+    return _panels(ds, "reaction wheels", rows, legend_rows=(0, len(rows) - 1) if speed else (0,))
+
+
+def thruster_figure(ds, series):
+    """Thrusters against time: cumulative firings and on-time of every spacecraft (all its
+    thrusters)."""
+    rows = [(series[n], s, {}) for n, s in (("thruster_firings", "firings"), ("thruster_on_time_s", "on-time"))
+            if n in series]
+    return _panels(ds, "thrusters (cumulative)", rows)
+
+
+def relative_motion_figure(ds, series):
+    """Relative motion against time: each spacecraft's distance (m) and speed (m/s) relative to
+    the formation's centroid."""
+    rows = [(series[n], s, {}) for n, s in (("distance_to_centroid_m", "distance\nto centroid"),
+                                            ("speed_to_centroid_m_s", "speed\nto centroid")) if n in series]
+    return _panels(ds, "relative motion", rows)
 
 
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
@@ -275,31 +293,43 @@ def _log_y(ax):
         ax.yaxis.set_minor_formatter(NullFormatter())
 
 
-def standard_figures(ds, attitude_threshold_deg=None, rate_threshold_rad_s=None):
-    """All standard figures of a run, keyed by file stem.
+def figure_makers(ds, analysis=None, series=None):
+    """Every standard figure the run has, keyed by file stem, not yet drawn.
 
     Parameters
     ----------
     ds : xarray.Dataset
-        Run record (see :func:`attitude_figure` … :func:`sync_error_figure`).
-    attitude_threshold_deg : float, optional
-        Passed to :func:`sync_error_figure`, deg.
-    rate_threshold_rad_s : float, optional
-        Passed to :func:`sync_error_figure`, rad/s.
+        Run record.
+    analysis : object, optional
+        The scenario's ``[analysis]`` table (thresholds), as :func:`run_series` takes it.
+    series : list of Series, optional
+        The run's catalogue, if already made.
 
     Returns
     -------
-    dict of str to matplotlib.figure.Figure
-        ``attitude`` (quaternions, or angles in the small-angle model), ``rates``,
-        ``torque_<first spacecraft name>`` (when a torque acts), ``sync_error`` (quaternions).
+    dict of str to callable
+        ``stem -> () -> Figure``: ``attitude``, ``rates``, ``torque_<first spacecraft>``,
+        ``sync_error``, ``wheels``, ``thrusters``, ``relative_motion``, each only when the run
+        has its series.
     """
-    small_angle = "q" not in ds
-    figures = {"attitude": angle_figure(ds) if small_angle else attitude_figure(ds), "rates": rate_figure(ds)}
-    if "torque" in ds:
-        figures[f"torque_{_names(ds)[0]}"] = torque_figure(ds, 0)
-    if not small_angle:
-        figures["sync_error"] = sync_error_figure(ds, attitude_threshold_deg, rate_threshold_rad_s)
-    return figures
+    s = series_by_name(run_series(ds, analysis) if series is None else series)
+    wanted = {
+        "attitude": ATTITUDE_ERRORS + ("attitude_angle_deg",),
+        "rates": ("rate_rad_s",),
+        f"torque_{_names(ds)[0]}": ("torque_n_m", "torque_command_n_m"),
+        "sync_error": ("attitude_spread_deg", "rate_spread_rad_s"),
+        "wheels": ("wheel_speed_rad_s", "wheel_momentum_n_m_s"),
+        "thrusters": ("thruster_firings", "thruster_on_time_s"),
+        "relative_motion": ("distance_to_centroid_m", "speed_to_centroid_m_s"),
+    }
+    draw = dict(zip(wanted, (attitude_figure, rate_figure, torque_figure, sync_error_figure, wheel_figure,
+                             thruster_figure, relative_motion_figure)))
+    return {stem: (lambda f=draw[stem]: f(ds, s)) for stem, names in wanted.items() if any(n in s for n in names)}
+
+
+def standard_figures(ds, analysis=None, series=None):
+    """All standard figures of a run, keyed by file stem (:func:`figure_makers`, drawn)."""
+    return {stem: make() for stem, make in figure_makers(ds, analysis, series).items()}
 
 
 def save_figures(figures, directory, dpi=120):

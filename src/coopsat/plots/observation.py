@@ -89,7 +89,7 @@ def relative_figure(ds, built):
         ax.semilogy(t, np.degrees(ds["relative_attitude_error"].values[:, k]), lw=0.8, label=f"{name}: relative attitude error")
         ax.semilogy(t, np.degrees(ds["image_mismatch"].values[:, k]), lw=0.8, label=f"{name}: image-plane mismatch")
     ax.set_xlabel("time (s)")
-    ax.set_ylabel("deg")
+    ax.set_ylabel("error to the reference (deg)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize="small")
     ax.set_title(_title(ds, f"against {built.names[ref]} (law: {built.scenario.controller.law})"))

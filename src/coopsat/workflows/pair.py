@@ -8,8 +8,12 @@ share them (otherwise the pairing would be a claim, not a fact), runs each scena
 ``seed … seed + K − 1`` as one vmapped batch, and compares:
 
 * every scalar metric both runs have, per seed, with the paired difference B − A;
-* the time series a paper module names in ``PAIRED_SERIES`` (e.g. the relative attitude error),
-  as B − A over time per seed, in ``pair.nc``.
+* every time series both runs have, as B − A over time per seed, in ``pair.nc``: those a paper
+  module names in ``PAIRED_SERIES`` (e.g. the relative attitude error) and the run's catalogue
+  (:func:`coopsat.analysis.series.run_series`) of one value per spacecraft or per formation at
+  each sample (attitude errors, spreads, effort, fuel, wheel momentum; a vector's components
+  are left to the run's own figures). Series only one of the two runs has are named, not
+  compared; with none in common no time-series file is written.
 """
 
 import json
@@ -18,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from coopsat.analysis.papers import paper_modules
+from coopsat.analysis.series import run_series
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
 from coopsat.workflows.pipeline import analyse
 from coopsat.scenarios.load import load_scenario
@@ -46,8 +51,10 @@ class PairResult:
     metrics : list of (dict, dict)
         Per seed, A's and B's metrics.
     series : dict of str -> (DataArray, DataArray)
-        Per paired series, A's and B's values, dims ``(seed, time, spacecraft, …)``.
+        Per paired series, A's and B's values, dims ``(seed, time[, spacecraft])``.
     compile_s, run_s : float
+    unpaired : (list of str, list of str)
+        Time series only A has, and only B has (not compared).
     """
 
     names: tuple
@@ -56,6 +63,16 @@ class PairResult:
     series: dict
     compile_s: float
     run_s: float
+    unpaired: tuple = ((), ())
+
+    def series_lines(self):
+        """What the pair says of its time series: those compared (B − A in pair.nc), those only
+        one run has, or that there are none in common (then no pair.nc and no pair.png)."""
+        a, b = self.names
+        lines = [f"time series B − A: {', '.join(self.series)}" if self.series else
+                 "time series: none that both runs have (no pair.nc, no pair.png)"]
+        lines += [f"  only in {who}: {', '.join(names)}" for who, names in zip((a, b), self.unpaired) if names]
+        return lines
 
     def common_metrics(self):
         """Scalar metrics that both scenarios report in every seed, sorted."""
@@ -87,7 +104,7 @@ def table_lines(result, metrics=None):
     width = max((len(r["metric"]) for r in shown), default=6)
     lines.append(f"{'metric':<{width}}  {'A (mean)':>12}  {'B (mean)':>12}  {'B - A':>12}")
     lines += [f"{r['metric']:<{width}}  {r['a_mean']:>12.6g}  {r['b_mean']:>12.6g}  {r['diff_mean']:>12.6g}" for r in shown]
-    return lines
+    return lines + result.series_lines()
 
 
 def _number(v):
@@ -114,6 +131,17 @@ def paired_series_names(built):
     for module in paper_modules(built):
         names += [n for n in getattr(module, "PAIRED_SERIES", ()) if n not in names]
     return names
+
+
+def pairable_series(built, ds):
+    """``{name: DataArray}`` of one run that a pair compares over time: its papers'
+    ``PAIRED_SERIES`` it recorded, then its catalogue series of one value per spacecraft or per
+    formation (``log_scale`` 0/1 in their attrs, for the figure)."""
+    out = {n: ds[n] for n in paired_series_names(built) if n in ds}
+    for s in run_series(ds, built.scenario.analysis):
+        if s.values.dims in (("time",), ("time", "spacecraft")):
+            out[s.name] = s.values.assign_attrs(log_scale=int(s.log_scale))
+    return out
 
 
 def run_pair(ref_a, ref_b, n_seeds=3, overrides=(), progress=False):
@@ -145,12 +173,15 @@ def run_pair(ref_a, ref_b, n_seeds=3, overrides=(), progress=False):
     runs_b, cb, rb = run_batch(ref_b, lists, progress)
     metrics = [(analyse(ba, da, compare=False)[0], analyse(bb, db, compare=False)[0])
                for (ba, da), (bb, db) in zip(runs_a, runs_b)]
-    names = [n for n in paired_series_names(runs_a[0][0]) if n in runs_a[0][1] and n in runs_b[0][1]]
+    per_run = [[pairable_series(built, ds) for built, ds in runs] for runs in (runs_a, runs_b)]
+    # A series counts only if every seed of a run has it (a catalogue leaves out all-zero series).
+    have = [set.intersection(*(set(s) for s in run)) for run in per_run]
+    names = [n for n in per_run[0][0] if n in have[0] & have[1]]
     series = {
-        n: tuple(xr.concat([ds[n] for _, ds in runs], dim="seed").assign_coords(seed=seeds) for runs in (runs_a, runs_b))
-        for n in names
+        n: tuple(xr.concat([s[n] for s in run], dim="seed").assign_coords(seed=seeds) for run in per_run) for n in names
     }
-    return PairResult((scenario_a.name, scenario_b.name), seeds, metrics, series, ca + cb, ra + rb)
+    unpaired = tuple([n for n in per_run[k][0] if n in have[k] - have[1 - k]] for k in (0, 1))
+    return PairResult((scenario_a.name, scenario_b.name), seeds, metrics, series, ca + cb, ra + rb, unpaired)
 
 
 def _fmt(v):
@@ -172,11 +203,13 @@ def markdown(result):
     for row in result.table():
         lines.append(f"| `{row['metric']}` | {_fmt(row['a_mean'])} | {_fmt(row['b_mean'])} | {_fmt(row['diff_mean'])} | "
                      f"{_fmt(row['diff_min'])} … {_fmt(row['diff_max'])} |")
+    lines += ["", "## Time series", ""] + [f"- {line.strip()}" for line in result.series_lines()]
     return "\n".join(lines) + "\n"
 
 
 def write_pair_folder(out_dir, result, figure=None):
-    """Write pair.json, pair.md, pair.nc (the paired series and B − A) and pair.png, atomically."""
+    """Write pair.json, pair.md and, when the runs have time series in common, pair.nc (the
+    paired series and B − A) and pair.png, atomically."""
     import xarray as xr
 
     with atomic_folder(out_dir, PairError) as tmp:
@@ -186,9 +219,10 @@ def write_pair_folder(out_dir, result, figure=None):
             data[f"{name}_a"] = sa
             data[f"{name}_b"] = sb
             data[f"{name}_b_minus_a"] = (sb - sa).assign_attrs(sa.attrs, long_name=f"{sa.attrs.get('long_name', name)}: B − A")
-        xr.Dataset(data, attrs={"scenario_a": a, "scenario_b": b}).to_netcdf(tmp / "pair.nc", engine="h5netcdf")
+        if data:
+            xr.Dataset(data, attrs={"scenario_a": a, "scenario_b": b}).to_netcdf(tmp / "pair.nc", engine="h5netcdf")
         (tmp / "pair.md").write_text(markdown(result), encoding="utf-8")
-        if figure is not None:
+        if figure is not None and data:
             figure.savefig(tmp / "pair.png", dpi=110)
         summary = {"scenario_a": a, "scenario_b": b, "seeds": result.seeds, "metrics": result.table(),
                    "compile_s": result.compile_s, "run_s": result.run_s}

@@ -16,7 +16,7 @@ import numpy as np
 import coopsat
 from coopsat.workflows import interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
-from coopsat.analysis.metrics import run_metrics
+from coopsat.analysis.metrics import attitude_moves, run_metrics
 from coopsat.analysis.papers import explainers, paper_metrics, paper_modules, paper_series
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
@@ -198,7 +198,9 @@ def analyse(built, ds, compare=True):
     sc = built.scenario
     inertia = np.stack([inertia_matrix(s.inertia_kgm2) for s in sc.spacecraft])
     h_wheels = np.array([s.h_wheels_b_nms for s in sc.spacecraft], dtype=float)
-    metrics = {**built.design_metrics, **run_metrics(ds, built.names, inertia, h_wheels), **paper_metrics(ds, built)}
+    # From the scenario's initial state, not the record's: metric_names' stand-in record is zeros.
+    attitude = attitude_moves(ds, [s.omega_b_rad_s for s in sc.spacecraft], [s.angle_rad for s in sc.spacecraft])
+    metrics = {**built.design_metrics, **run_metrics(ds, built.names, inertia, h_wheels, attitude), **paper_metrics(ds, built)}
     if not compare:
         return metrics, []
     note = "; ".join(built.warnings) or None
@@ -265,12 +267,69 @@ def run_figures(built, ds):
     """Every figure of a run, keyed by file stem: the standard ones and its papers'."""
     from coopsat.plots.figures import standard_figures
 
-    a = built.scenario.analysis
-    figures = standard_figures(ds, a.sync_attitude_deg, a.sync_rate_rad_s)
+    return {**standard_figures(ds, built.scenario.analysis), **_paper_figures(built, ds)}
+
+
+def _paper_figures(built, ds):
+    """The figures of the run's papers, keyed by file stem."""
+    figures = {}
     for module in paper_modules(built):
         if hasattr(module, "FIGURES"):
             figures.update(importlib.import_module(module.FIGURES).figures(ds, built))
     return figures
+
+
+class PlotError(ValueError):
+    """A figure a run folder does not have, or a folder without a run's record (one line)."""
+
+
+def plot_run(run_dir, what=None, out=None):
+    """Draw a run folder's figures again from its ``result.nc`` (``coopsat plot``).
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        A run folder written by ``coopsat run``.
+    what : iterable of str, optional
+        File stems of the figures to draw (``attitude``, ``torque_sat1``, a paper's
+        ``formation_error`` …); default every figure the run has.
+    out : str or Path, optional
+        Folder for the PNG files (created if missing); default ``run_dir``.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Raises
+    ------
+    PlotError
+        No record in ``run_dir``, or a stem the run has no figure of (the message lists those
+        it has).
+    """
+    import xarray as xr
+
+    from coopsat.plots.figures import figure_makers, save_figures
+    from coopsat.scenarios.document import Scenario as Document
+
+    run_dir = Path(run_dir)
+    try:
+        ds = xr.load_dataset(run_dir / "result.nc", engine="h5netcdf")
+        toml = ds.attrs["scenario_toml"]
+    except (OSError, ValueError, KeyError) as err:
+        raise PlotError(f"{run_dir}: no run record to draw from (result.nc with its scenario_toml): {err}") from err
+    scenario = Document.from_toml(toml).model
+    makers = figure_makers(ds, scenario.analysis)
+    wanted = list(dict.fromkeys(what or ()))
+    papers = {}
+    if not wanted or any(stem not in makers for stem in wanted):  # the build takes seconds: only when needed
+        papers = _paper_figures(prepare(scenario, check_published=False), ds)
+    known = [*makers, *(stem for stem in papers if stem not in makers)]
+    unknown = [stem for stem in wanted if stem not in known]
+    if unknown:
+        raise PlotError(f"{run_dir} has no figure {', '.join(unknown)}; its figures: {', '.join(known)}")
+    figures = {stem: papers[stem] if stem in papers else makers[stem]() for stem in wanted or known}
+    return save_figures(figures, run_dir if out is None else out)
 
 
 ENGINE_RATE_SC_STEPS_S = 2e6

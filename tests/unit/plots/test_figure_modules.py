@@ -27,7 +27,6 @@ import coopsat  # noqa: E402
 from coopsat.analysis.papers.cartwheel_keeping import ideal_states, truth_errors  # noqa: E402
 from coopsat.plots import campaign as campaign_plots  # noqa: E402
 from coopsat.plots import cartwheel as cartwheel_plots  # noqa: E402
-from coopsat.plots import figures as standard_plots  # noqa: E402
 from coopsat.plots import formation as formation_plots  # noqa: E402
 from coopsat.plots import observation as observation_plots  # noqa: E402
 from coopsat.plots import pair as pair_plots  # noqa: E402
@@ -284,7 +283,7 @@ def test_observation_torque_actuator_elevation_and_relative_figures(observation_
     (relative,) = figs["relative_error"].axes
     reference = toml["controller"]["reference"]
     followers = [n for n in names if n != reference]
-    assert relative.get_yscale() == "log" and relative.get_ylabel() == "deg"
+    assert relative.get_yscale() == "log" and relative.get_ylabel() == "error to the reference (deg)"
     assert reference in relative.get_title()
     lines = _lines(relative)
     assert len(lines) == 2 * len(followers)  # nothing drawn against the reference itself
@@ -449,34 +448,6 @@ def test_fuel_time_figure_draws_each_runs_totals_and_used_axes():
     np.testing.assert_allclose(by_label["LQR hub (0.5 N): 2-norm"].get_ydata(), 0.25 * t)
     np.testing.assert_allclose(by_label["LMI hub (1 N): L1"].get_ydata(), 0.6 * t)
     assert "LMI hub (1 N): 2-norm" not in by_label
-
-
-# --------------------------------------------------------------------------------------------
-# plots/figures.py: the small-angle attitude (the only standard figure test_figures.py skips)
-
-
-def test_small_angle_runs_draw_angles_in_place_of_quaternions():
-    n_t, names = 20, ["a", "b"]
-    rng = np.random.default_rng(3)
-    vec = ("time", "spacecraft", "component")
-    ds = xr.Dataset(
-        {
-            "angle": (vec, rng.normal(size=(n_t, 2, 3)) * 1e-2, {"units": "rad"}),
-            "omega": (vec, rng.normal(size=(n_t, 2, 3)) * 1e-3, {"units": "rad/s"}),
-            "torque": (vec, rng.normal(size=(n_t, 2, 3)) * 1e-4, {"units": "N m"}),
-        },
-        coords={"time": ("time", np.arange(n_t) * 0.1, {"units": "s"}), "spacecraft": names, "component": ["x", "y", "z"]},
-    )
-    figs = standard_plots.standard_figures(ds)
-    assert list(figs) == ["attitude", "rates", "torque_a"]  # no quaternion: no sync-error figure
-    fig = figs["attitude"]
-    assert [ax.get_ylabel() for ax in fig.axes] == ["θ_x [rad]", "θ_y [rad]", "θ_z [rad]"]
-    for c, ax in enumerate(fig.axes):
-        for k, line in enumerate(_lines(ax)):
-            np.testing.assert_array_equal(line.get_ydata(), ds["angle"].values[:, k, c])
-    # Dimension order is the dataset's business: a transposed variable draws the same.
-    swapped = ds.assign(angle=ds["angle"].transpose("spacecraft", "component", "time"))
-    np.testing.assert_array_equal(_lines(standard_plots.angle_figure(swapped).axes[1])[1].get_ydata(), ds["angle"].values[:, 1, 1])
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,148 +1,229 @@
+"""The standard figures (coopsat.plots.figures): drawn from the run's catalogue of series, only
+what the run has, attitude as angles in degrees, the commanded torque inside the axes, one unit
+style on every axis."""
+
+import re
+
 import numpy as np
 import pytest
 import xarray as xr
 from matplotlib.figure import Figure
 
-from coopsat.analysis.metrics import pairwise_attitude_error_deg
-from coopsat.plots.figures import (
-    LOG_FLOOR,
-    attitude_figure,
-    rate_figure,
-    save_figures,
-    standard_figures,
-    sync_error_figure,
-    torque_figure,
-)
+from coopsat.analysis.series import run_series, series_by_name
+from coopsat.geometry.quaternion import quat_from_axis_angle
+from coopsat.plots.figures import LOG_FLOOR, WINDOWS, figure_makers, save_figures, standard_figures, torque_figure
 
 N_SAT, N_T = 3, 50
 NAMES = [f"sat{i + 1}" for i in range(N_SAT)]
+VEC = ("time", "spacecraft", "component")
 
 
 def _unit(x):
     return x / np.linalg.norm(x, axis=-1, keepdims=True)
 
 
-def make_dataset(tracking, thrusters):
+def make_dataset(tracking=False, thrusters=False, wheels=False, n_t=N_T):
     rng = np.random.default_rng(0)
-    vec = ("time", "spacecraft", "component")
-    q_dims = ("time", "spacecraft", "q_component")
     data = {
-        "q": (q_dims, _unit(rng.normal(size=(N_T, N_SAT, 4))), {"units": "1"}),
-        "omega": (vec, rng.normal(size=(N_T, N_SAT, 3)), {"units": "rad/s"}),
-        "torque": (vec, rng.normal(size=(N_T, N_SAT, 3)), {"units": "N m"}),
-        "torque_command": (vec, rng.normal(size=(N_T, N_SAT, 3)), {"units": "N m"}),
-        "impulse": (vec, np.cumsum(rng.random((N_T, N_SAT, 3)), axis=0), {"units": "N m s"}),
+        "q": (("time", "spacecraft", "q_component"), _unit(rng.normal(size=(n_t, N_SAT, 4))), {"units": "1"}),
+        "omega": (VEC, rng.normal(size=(n_t, N_SAT, 3)), {"units": "rad/s"}),
+        "torque": (VEC, 0.05 * np.sign(rng.normal(size=(n_t, N_SAT, 3))), {"units": "N m"}),
+        "torque_command": (VEC, 0.015 * rng.normal(size=(n_t, N_SAT, 3)), {"units": "N m"}),
+        "impulse": (VEC, np.cumsum(rng.random((n_t, N_SAT, 3)), axis=0), {"units": "N m s"}),
     }
-    coords = {
-        "time": ("time", np.arange(N_T) * 0.5, {"units": "s"}),
-        "spacecraft": NAMES,
-        "component": ["x", "y", "z"],
-        "q_component": ["q0", "q1", "q2", "q3"],
-    }
+    coords = {"time": ("time", np.arange(n_t) * 0.5, {"units": "s"}), "spacecraft": NAMES, "component": ["x", "y", "z"],
+              "q_component": ["q0", "q1", "q2", "q3"]}
     if tracking:
-        data["q_ref"] = (("time", "q_component"), _unit(rng.normal(size=(N_T, 4))), {"units": "1"})
+        data["q_ref"] = (("time", "q_component"), _unit(rng.normal(size=(n_t, 4))), {"units": "1"})
     if thrusters:
         coords["thruster"] = ["+x", "-x", "+y", "-y", "+z", "-z"]
-        on_time = np.cumsum(rng.random((N_T, N_SAT, 6)), axis=0)
-        data["thruster_on_time"] = (("time", "spacecraft", "thruster"), on_time, {"units": "s"})
-    for name in data:
-        data[name][2]["long_name"] = name
+        data["thruster_on_time"] = (("time", "spacecraft", "thruster"), np.cumsum(rng.random((n_t, N_SAT, 6)), axis=0),
+                                    {"units": "s"})
+        data["thruster_firings"] = (("time", "spacecraft", "thruster"), np.cumsum(rng.integers(0, 2, (n_t, N_SAT, 6)), axis=0),
+                                    {"units": "1"})
+    if wheels:
+        coords["wheel"] = ["w1", "w2", "w3", "w4"]
+        data["wheel_speed"] = (("time", "spacecraft", "wheel"), rng.normal(size=(n_t, N_SAT, 4)), {"units": "rad/s"})
+        data["h_wheels"] = (VEC, rng.normal(size=(n_t, N_SAT, 3)), {"units": "N m s"})
     return xr.Dataset(data, coords=coords, attrs={"scenario_name": "synthetic"})
 
 
-@pytest.fixture(params=[(False, False), (True, True)], ids=["regulation", "tracking"])
-def ds(request):
-    return make_dataset(*request.param)
+def translation_only():
+    """A deep-space-like record: attitude at rest and never torqued, positions and forces."""
+    rng = np.random.default_rng(1)
+    q = np.zeros((N_T, N_SAT, 4))
+    q[..., 0] = 1.0
+    return xr.Dataset(
+        {"q": (("time", "spacecraft", "q_component"), q, {"units": "1"}),
+         "omega": (VEC, np.zeros((N_T, N_SAT, 3)), {"units": "rad/s"}),
+         "r_eci": (VEC, 1e3 * rng.normal(size=(N_T, N_SAT, 3)), {"units": "m"}),
+         "v_eci": (VEC, rng.normal(size=(N_T, N_SAT, 3)), {"units": "m/s"}),
+         "force": (VEC, rng.normal(size=(N_T, N_SAT, 3)), {"units": "N"})},
+        coords={"time": ("time", np.arange(N_T) * 50.0, {"units": "s"}), "spacecraft": NAMES, "component": ["x", "y", "z"],
+                "q_component": ["q0", "q1", "q2", "q3"]})
 
 
-def _line_counts(fig):
-    return [len(ax.get_lines()) for ax in fig.axes]
+def axis_labels(figures):
+    return [label for fig in figures.values() for ax in fig.axes for label in (ax.get_xlabel(), ax.get_ylabel()) if label]
 
 
-def test_attitude_figure(ds):
-    fig = attitude_figure(ds)
-    assert isinstance(fig, Figure)
-    assert _line_counts(fig) == [N_SAT + ("q_ref" in ds)] * 4
-    assert fig.axes[-1].get_xlabel() == "time [s]"
+def check_unit_style(figures):
+    """Every unit in parentheses, none in brackets (docs: one unit style)."""
+    labels = axis_labels(figures)
+    assert labels and not [label for label in labels if re.search(r"\[[^\]]*\]", label)]
+    assert all(label == "time (s)" for label in labels if label.startswith("time"))
 
 
-def test_rate_figure(ds):
-    fig = rate_figure(ds)
-    assert isinstance(fig, Figure)
-    assert _line_counts(fig) == [N_SAT] * 3
-    omega_z_sat2 = fig.axes[2].get_lines()[1].get_ydata()
-    np.testing.assert_array_equal(omega_z_sat2, ds["omega"].values[:, 1, 2])
-
-
-def test_torque_figure_by_name_or_index(ds):
-    by_name, by_index = torque_figure(ds, "sat2"), torque_figure(ds, 1)
-    assert _line_counts(by_name) == [2] * 3
-    for k, (ax_name, ax_index) in enumerate(zip(by_name.axes, by_index.axes)):
-        applied, commanded = ax_name.get_lines()
-        assert applied.get_drawstyle() == "steps-post"
-        np.testing.assert_array_equal(applied.get_ydata(), ds["torque"].values[:, 1, k])
-        np.testing.assert_array_equal(commanded.get_ydata(), ds["torque_command"].values[:, 1, k])
-        np.testing.assert_array_equal(ax_index.get_lines()[0].get_ydata(), applied.get_ydata())
-    assert "sat2" in by_name.get_suptitle()
-
-
-def test_sync_error_figure(ds):
-    tracking = "q_ref" in ds
-    fig = sync_error_figure(ds)
-    assert _line_counts(fig) == [1, 1] + ([N_SAT] if tracking else [])
-    assert all(ax.get_yscale() == "log" for ax in fig.axes)
-    expected = np.maximum(pairwise_attitude_error_deg(ds["q"].values), LOG_FLOOR)
-    np.testing.assert_allclose(fig.axes[0].get_lines()[0].get_ydata(), expected)
-
-
-def test_sync_error_clips_zero_and_draws_thresholds():
-    ds = make_dataset(tracking=True, thrusters=False)
-    # Identity everywhere: exactly zero error (random equal quaternions leave ~1e-6 deg of
-    # round-off in the metric), and equal rates: exactly zero rate difference.
-    ds["q"][:] = ds["q_ref"][:] = [1.0, 0.0, 0.0, 0.0]
-    ds["omega"][:] = 0.01
-    fig = sync_error_figure(ds, attitude_threshold_deg=0.1, rate_threshold_rad_s=1e-3)
-    assert _line_counts(fig) == [2, 2, N_SAT + 1]
+def check_command_inside(fig):
+    """Every line and band drawn on a torque figure's axes lies within its y-limits."""
     for ax in fig.axes:
-        assert np.all(ax.get_lines()[0].get_ydata() == LOG_FLOOR)
-    assert fig.axes[1].get_lines()[1].get_ydata()[0] == 1e-3
+        low, high = ax.get_ylim()
+        for line in ax.get_lines():
+            y = np.asarray(line.get_ydata(), dtype=float)
+            assert low <= y.min() and y.max() <= high, ax.get_ylabel()
+        for band in ax.collections:
+            y = np.concatenate([p.vertices[:, 1] for p in band.get_paths()])
+            assert low <= y.min() and y.max() <= high, ax.get_ylabel()
 
 
-def test_standard_and_save_figures(ds, tmp_path):
-    figures = standard_figures(ds, attitude_threshold_deg=1.0)
-    assert list(figures) == ["attitude", "rates", "torque_sat1", "sync_error"]
-    paths = save_figures(figures, str(tmp_path / "out"), dpi=40)
-    assert [p.name for p in paths] == [f"{stem}.png" for stem in figures]
-    for path in paths:
-        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+def test_a_consensus_like_run_draws_attitude_errors_in_degrees_not_quaternions():
+    ds = make_dataset(thrusters=True)
+    figures = standard_figures(ds)
+    assert list(figures) == ["attitude", "rates", "torque_sat1", "sync_error", "thrusters"]
+    (ax,) = figures["attitude"].axes
+    assert ax.get_ylabel() == "attitude error\nto the formation's mean (deg)"
+    assert len(ax.get_lines()) == N_SAT
+    expected = series_by_name(run_series(ds))["attitude_error_formation_deg"].values.values
+    np.testing.assert_allclose(ax.get_lines()[1].get_ydata(), np.maximum(expected[:, 1], LOG_FLOOR))
+    assert not any("q0" in label or "q_component" in label for label in axis_labels(figures))
+    check_unit_style(figures)
 
 
-def test_figures_without_a_commanded_or_any_torque():
-    # No controller: no torque_command; force actuators only: no torque at all.
-    free = make_dataset(tracking=False, thrusters=False).drop_vars("torque_command")
-    assert set(standard_figures(free)) == {"attitude", "rates", "torque_sat1", "sync_error"}
-    assert len(torque_figure(free).axes[0].lines) == 1  # the applied torque only
-    forces_only = free.drop_vars("torque")
-    assert set(standard_figures(forces_only)) == {"attitude", "rates", "sync_error"}
+def test_tracking_adds_the_error_to_the_reference_and_thresholds_come_from_the_analysis_table():
+    from types import SimpleNamespace
+
+    ds = make_dataset(tracking=True)
+    figures = standard_figures(ds, SimpleNamespace(sync_attitude_deg=0.5, sync_rate_rad_s=2e-3))
+    assert [ax.get_ylabel() for ax in figures["attitude"].axes] == [
+        "attitude error\nto the reference (deg)", "attitude error\nto the formation's mean (deg)"]
+    spread, rate = figures["sync_error"].axes
+    assert [line.get_ydata()[0] for line in spread.get_lines()[1:]] == [0.5]  # the dotted threshold
+    assert rate.get_lines()[1].get_ydata()[0] == 2e-3
+    assert spread.get_yscale() == "log" or np.ptp(spread.get_lines()[0].get_ydata()) < 180.0
+
+
+def test_a_translation_only_run_has_no_attitude_rate_or_sync_figure():
+    figures = standard_figures(translation_only())
+    assert list(figures) == ["relative_motion"]
+    check_unit_style(figures)
+
+
+def test_wheels_get_their_figure_only_when_the_run_has_wheels():
+    assert "wheels" not in figure_makers(make_dataset())
+    fig = standard_figures(make_dataset(wheels=True))["wheels"]
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert labels == [f"{n}\nwheel speed (rad/s)" for n in NAMES] + ["wheel\nmomentum ‖h‖ (N m s)"]
+    assert len(fig.axes[0].get_lines()) == 4  # one line per wheel
+
+
+def test_the_commanded_torque_stays_inside_the_axes():
+    ds = make_dataset()
+    fig = standard_figures(ds)["torque_sat1"]
+    assert len(fig.axes) == 3 and len(fig.axes[0].get_lines()) == 2  # overlaid: the command is within 2x
+    check_command_inside(fig)
+    # A command 100 times the applied torque (a saturated, unstable loop) gets its own panels.
+    wild = ds.assign(torque_command=ds["torque_command"] * 100.0)
+    fig = standard_figures(wild)["torque_sat1"]
+    assert len(fig.axes) == 6
+    check_command_inside(fig)
+    assert fig.axes[3].get_ylim()[1] > 50 * fig.axes[0].get_ylim()[1]
 
 
 def test_a_long_switching_record_is_drawn_per_window_with_legends_beside_the_data():
-    # 2000 samples of bang-bang torque (PWM at the published period): drawn as at most
-    # WINDOWS steps of the window mean, with the min–max band, not as a solid block.
-    from coopsat.plots.figures import WINDOWS
-
     n_t = 2000
-    t = np.arange(n_t) * 0.5
+    ds = make_dataset(n_t=n_t)
     sign = np.where(np.arange(n_t) % 2 == 0, 1.0, -1.0)
-    torque = 0.05 * np.broadcast_to(sign[:, None, None], (n_t, 1, 3)).copy()
-    ds = xr.Dataset(
-        {"torque": (("time", "spacecraft", "component"), torque, {"units": "N m"})},
-        coords={"time": ("time", t, {"units": "s"}), "spacecraft": ["sat1"], "component": ["x", "y", "z"]},
-    )
-    fig = torque_figure(ds)
+    ds["torque"][:] = 0.05 * sign[:, None, None]
+    fig = torque_figure(ds, series_by_name(run_series(ds)), "sat2")
     ax = fig.axes[0]
     mean_line = ax.lines[0]
     assert len(mean_line.get_xdata()) <= WINDOWS
     np.testing.assert_allclose(mean_line.get_ydata(), 0.0, atol=1e-15)  # the mean of ±0.05 is 0
-    assert len(ax.collections) == 1  # the min–max band
+    assert len(ax.collections) == 2  # the min–max bands of the applied torque and of the command
     assert ax.get_legend() is None and len(fig.legends) == 1  # the legend is outside the axes
+    assert "sat2" in fig.get_suptitle()
+    check_command_inside(fig)
+
+
+def test_small_angle_runs_draw_angles_in_degrees():
+    rng = np.random.default_rng(3)
+    ds = xr.Dataset(
+        {"angle": (VEC, rng.normal(size=(20, N_SAT, 3)) * 1e-2, {"units": "rad"}),
+         "omega": (VEC, rng.normal(size=(20, N_SAT, 3)) * 1e-3, {"units": "rad/s"}),
+         "torque": (VEC, rng.normal(size=(20, N_SAT, 3)) * 1e-4, {"units": "N m"})},
+        coords={"time": ("time", np.arange(20) * 0.1, {"units": "s"}), "spacecraft": NAMES, "component": ["x", "y", "z"]})
+    figures = standard_figures(ds.assign(angle=ds["angle"].transpose("spacecraft", "component", "time")))
+    assert list(figures) == ["attitude", "rates", "torque_sat1", "sync_error"]
+    axes = figures["attitude"].axes
+    assert [ax.get_ylabel() for ax in axes] == ["θ_x (deg)", "θ_y (deg)", "θ_z (deg)"]
+    np.testing.assert_allclose(axes[1].get_lines()[2].get_ydata(), np.degrees(ds["angle"].values[:, 2, 1]))
+    check_unit_style(figures)
+
+
+def test_a_quaternion_run_without_a_torque_has_no_torque_figure():
+    q = np.asarray(quat_from_axis_angle(np.array([0.0, 0.0, 1.0]), np.linspace(0.0, 1.0, N_T)))
+    ds = make_dataset().drop_vars(["torque", "torque_command", "impulse"])
+    ds["q"][:] = np.broadcast_to(q[:, None, :], (N_T, N_SAT, 4))
+    assert list(standard_figures(ds)) == ["attitude", "rates", "sync_error"]
+
+
+def test_save_figures_writes_pngs(tmp_path):
+    figures = standard_figures(make_dataset())
+    paths = save_figures(figures, str(tmp_path / "out"), dpi=40)
+    assert [p.name for p in paths] == [f"{stem}.png" for stem in figures]
+    assert all(isinstance(f, Figure) for f in figures.values())
+    for path in paths:
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("stem", ["attitude", "torque_sat1"])
+def test_figure_makers_draw_only_when_called(stem):
+    makers = figure_makers(make_dataset())
+    assert isinstance(makers[stem](), Figure)
+
+
+# Every bundled scenario at a short horizon (those of tests/scenarios/test_bundled.py): its
+# figures, the standard ones and its papers', show only what it has, in one unit style.
+def _short_s(name):
+    if name.startswith("deepspace-"):
+        return 500.0
+    return {"orbit-two-body": 100.0, "rigid-body-free": 2.0}.get(name, 200.0 if name.startswith("cartwheel-") else 5.0)
+
+
+def _bundled():
+    from coopsat.scenarios.load import bundled_names
+
+    return bundled_names()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", _bundled())
+def test_every_bundled_scenarios_figures_show_only_what_it_has(name):
+    import coopsat
+    from coopsat.analysis.metrics import attitude_moves
+
+    result = coopsat.run(coopsat.Scenario.load(name).set("sim.t_final_s", _short_s(name)))
+    ds, figures = result.dataset, result.figures()
+    attitude = {"attitude", "rates", "sync_error"} & set(figures)
+    assert bool(attitude) == attitude_moves(ds), name  # deep space, cartwheel: no attitude figure
+    assert ("wheels" in figures) == ("wheel_speed" in ds)  # the observation runs have wheels
+    assert ("thrusters" in figures) == ("thruster_firings" in ds and bool(ds["thruster_firings"].any()))
+    if "attitude" in figures:
+        assert all(ax.get_ylabel().endswith("(deg)") for ax in figures["attitude"].axes)
+        assert "final_rate_max_rad_s" in result.metrics
+    else:
+        assert "final_rate_max_rad_s" not in result.metrics
+    torque = f"torque_{ds['spacecraft'].values[0]}"
+    if torque in figures:
+        check_command_inside(figures[torque])
+    check_unit_style(figures)

@@ -215,14 +215,13 @@ def test_every_bundled_scenarios_figures_show_only_what_it_has(name):
     result = coopsat.run(coopsat.Scenario.load(name).set("sim.t_final_s", _short_s(name)))
     ds, figures = result.dataset, result.figures()
     attitude = {"attitude", "rates", "sync_error"} & set(figures)
-    assert bool(attitude) == attitude_moves(ds), name  # deep space, cartwheel: no attitude figure
+    moves = attitude_moves(ds)
+    assert bool(attitude) == moves, name  # deep space, cartwheel: no attitude figure
+    assert ("final_rate_max_rad_s" in result.metrics) == moves  # nor attitude metrics
     assert ("wheels" in figures) == ("wheel_speed" in ds)  # the observation runs have wheels
     assert ("thrusters" in figures) == ("thruster_firings" in ds and bool(ds["thruster_firings"].any()))
     if "attitude" in figures:
         assert all(ax.get_ylabel().endswith("(deg)") for ax in figures["attitude"].axes)
-        assert "final_rate_max_rad_s" in result.metrics
-    else:
-        assert "final_rate_max_rad_s" not in result.metrics
     torque = f"torque_{ds['spacecraft'].values[0]}"
     if torque in figures:
         check_command_inside(figures[torque])

@@ -99,7 +99,7 @@ def validate(scenario: ScenarioLike) -> Validation:
 
 
 def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path | None = None, figures: bool = False,
-        progress: bool = False, allow_long: bool = False, native: bool | None = None) -> Result:
+        report: bool = True, progress: bool = False, allow_long: bool = False, native: bool | None = None) -> Result:
     """Run one scenario (``coopsat run``), in memory.
 
     Parameters
@@ -111,6 +111,8 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
         Also write the run folder there (as :meth:`Result.save`).
     figures : bool
         With ``out_dir``: write the figures too (:meth:`Result.figures` draws them any time).
+    report : bool
+        With ``out_dir``: write ``report.html`` (:func:`report` makes it any time).
     progress : bool
         Progress bar once a run has taken 2 s.
     allow_long : bool
@@ -128,8 +130,56 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
     """
     result = _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long, native=native)
     if out_dir is not None:
-        result.save(out_dir, figures=figures)
+        result.save(out_dir, figures=figures, report=report)
     return result
+
+
+def load_run(run_dir: str | Path) -> Result:
+    """A run folder written by ``coopsat run`` (or :meth:`Result.save`), read back.
+
+    The record, metrics and comparison come from the folder; the scenario is rebuilt from the
+    resolved TOML kept in ``result.nc``, so ``built``, ``checks`` and :meth:`Result.figures`
+    work as after :func:`run`.
+
+    Raises
+    ------
+    coopsat.workflows.pipeline.RunFolderError
+        Not a run folder, or one that cannot be read.
+    """
+    from coopsat.workflows.pipeline import load_run as _load
+
+    return _load(run_dir)
+
+
+def report(run: Result | str | Path, out: str | Path | None = None) -> Path:
+    """Write a run's interactive report page (``coopsat report``): the 3D view of the formation,
+    its network over time, the time series, the published comparison, the design-time checks
+    and the metrics, in one self-contained HTML file (docs/report.md).
+
+    Parameters
+    ----------
+    run : Result, str or Path
+        A result in memory, or a run folder.
+    out : str or Path, optional
+        The file to write; default ``report.html`` in the run folder (required for a result
+        in memory).
+
+    Returns
+    -------
+    Path
+        The file written (atomically).
+    """
+    from coopsat.workflows.folders import write_text_atomically
+    from coopsat.workflows.pipeline import REPORT_FILE
+
+    if not isinstance(run, Result):
+        folder = Path(run)
+        run = load_run(folder)
+        out = folder / REPORT_FILE if out is None else out
+    elif out is None:
+        raise TypeError("report(result): give out=FILE for a result in memory (a run folder has its own place)")
+    write_text_atomically(out, run.report_html())
+    return Path(out)
 
 
 def plot(run_dir: str | Path, what: Sequence[str] | None = None, out: str | Path | None = None) -> list[Path]:
@@ -331,6 +381,7 @@ def campaign(campaign: str | Path, out_dir: str | Path, *, workers: int | None =
     summary = run_campaign(campaign, Path(out_dir), workers=workers, scheduler=scheduler, progress=progress)
     return CampaignRun(Path(out_dir), **{k: summary[k] for k in ("runs", "batches", "skipped_batches", "failed", "wall_s",
                                                                   "worker_peak_rss_mb")})
+
 
 def export(run: Result | str | Path, format: str, out: str | Path | None = None) -> Path:
     """Write a finished run as a CCSDS OEM, a CCSDS AEM or a CZML scene (``coopsat export``,

@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|export|plot|margin|design|topology|tradeoff|sweep|tune|campaign|bench``.
+"""Command line: ``coopsat list|show|validate|run|report|export|plot|margin|design|topology|tradeoff|sweep|pair|tune|campaign|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -55,10 +55,11 @@ def _input_errors():
     from coopsat.workflows.pair import PairError
     from coopsat.plugins import PluginError
     from coopsat.sim.native.capability import NativeUnavailableError
+    from coopsat.reports import ReportError
     from coopsat.exports.run import ExportError
 
     return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError,
-            PairError, PluginError, NativeUnavailableError, ExportError, PlotError)
+            PairError, PluginError, NativeUnavailableError, ReportError, ExportError, PlotError)
 
 
 def _cmd_list(args):
@@ -117,10 +118,18 @@ def _cmd_run(args):
         figures=not args.no_figures,
         on_warning=lambda note: print(f"warning: {note}", file=sys.stderr),
         allow_long=args.allow_long,
+        report=not args.no_report,
     )
     print(f"wrote {result.out_dir}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
     if not args.quiet:
         _print(summary_lines(result))
+    return 0
+
+
+def _cmd_report(args):
+    from coopsat.api import report
+
+    print(f"wrote {report(args.run_dir, args.out)}")
     return 0
 
 
@@ -322,9 +331,20 @@ def _add_run(sub):
     run.add_argument("--out", help="run folder (default runs/<scenario name>)")
     _set_option(run)
     run.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    run.add_argument("--no-report", action="store_true", help="skip report.html (the interactive report)")
     run.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no metrics on stdout")
     run.add_argument("--allow-long", action="store_true", help="run even when the estimated wall time is above 30 min")
     run.set_defaults(func=_cmd_run)
+
+
+def _add_report(sub):
+    rep = sub.add_parser(
+        "report", help="make a run folder's report.html again (3D view, network, time series, checks, metrics)",
+        description="Write the interactive report of a run folder from its result.nc, metrics and comparison: one "
+                    "self-contained HTML file that works offline (docs/report.md).")
+    rep.add_argument("run_dir", help="a run folder written by coopsat run")
+    rep.add_argument("--out", metavar="FILE.html", help="the file to write (default RUN_DIR/report.html)")
+    rep.set_defaults(func=_cmd_report)
 
 
 def _add_export(sub):
@@ -509,7 +529,7 @@ def build_parser():
     """The argument parser (exposed for tests and documentation)."""
     p = argparse.ArgumentParser(prog="coopsat", description="Cooperative control of spacecraft formations.")
     sub = p.add_subparsers(dest="command", required=True)
-    for add in (_add_list, _add_show, _add_validate, _add_run, _add_export, _add_plot, _add_margin, _add_design, _add_topology, _add_tradeoff, _add_sweep, _add_pair, _add_tune, _add_campaign, _add_bench):
+    for add in (_add_list, _add_show, _add_validate, _add_run, _add_report, _add_export, _add_plot, _add_margin, _add_design, _add_topology, _add_tradeoff, _add_sweep, _add_pair, _add_tune, _add_campaign, _add_bench):
         add(sub)
     return p
 

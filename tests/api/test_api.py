@@ -144,7 +144,25 @@ def test_run_writes_nothing_unless_asked(result, tmp_path, monkeypatch):
     coopsat.run(coopsat.Scenario.load("rigid-body-free").set("sim.t_final_s", 1.0))
     assert list(tmp_path.iterdir()) == []
     folder = result.save(tmp_path / "saved", figures=False)
-    assert {p.name for p in Path(folder).iterdir()} == {"run.json", "result.nc", "metrics.json", "comparison.json", "comparison.md"}
+    assert {p.name for p in Path(folder).iterdir()} == {"run.json", "result.nc", "metrics.json", "comparison.json", "comparison.md",
+                                                        "report.html"}
+
+
+def test_a_saved_run_reads_back_as_the_same_result(result, tmp_path):
+    folder = result.save(tmp_path / "saved", figures=False, report=False)
+    back = coopsat.load_run(folder)
+    # metrics.json keeps 15 significant digits (workflows.folders.json_ready)
+    assert back.metrics.keys() == result.metrics.keys() and back.comparison == result.comparison
+    for name, value in result.metrics.items():
+        assert back.metrics[name] == (None if value is None else pytest.approx(value, rel=1e-14)), name
+    assert back.dataset.equals(result.dataset) and set(back.checks) == set(result.checks)
+    assert back.scenario.to_dict() == result.scenario.resolved().to_dict()
+    page = coopsat.report(folder)
+    assert page == folder / "report.html" and "coopsat-data" in page.read_text()
+    with pytest.raises(TypeError, match="out=FILE"):
+        coopsat.report(result)
+    with pytest.raises(coopsat.workflows.pipeline.RunFolderError, match="not a run folder"):
+        coopsat.load_run(tmp_path)
 
 
 def test_figures_are_matplotlib_figures(result):

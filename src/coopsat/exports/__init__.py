@@ -5,7 +5,8 @@ function ``coopsat.export`` with the module.
 
 Each format is a module with ``SUFFIX``, ``ONE_OBJECT_PER_FILE``, ``WHAT`` and ``render``;
 :data:`FORMATS` names them, so a new format is a new module and a line here. The module and its
-library (ccsds-ndm, czml3) are imported only when that format is asked for.
+library (ccsds-ndm, czml3: the ``export`` extra, ``pip install 'coopsat[export]'``; ccsds-ndm is
+GPL-3.0, so it stays out of a plain installation) are imported only when that format is asked for.
 
 Where the output goes: a format of one object per file (OEM, AEM: the CCSDS messages describe
 one object each) writes a file for a run of one spacecraft and a folder of ``<name>.<suffix>``
@@ -14,6 +15,7 @@ written, and written atomically, so a refusal or an interrupt leaves nothing beh
 """
 
 import importlib
+import importlib.util
 from pathlib import Path
 
 from coopsat.exports.run import ExportError, read_states
@@ -28,7 +30,12 @@ __all__ = ["FORMATS", "ExportError", "export_run"]
 def _writer(fmt):
     if fmt not in FORMATS:
         raise ExportError(f"format {fmt!r}: choose one of {', '.join(FORMATS)}")
-    return importlib.import_module(FORMATS[fmt])
+    writer = importlib.import_module(FORMATS[fmt])
+    distribution, module = writer.LIBRARY
+    if importlib.util.find_spec(module) is None:
+        # an extra, not a dependency: ccsds-ndm is GPL-3.0, and a run needs neither library
+        raise ExportError(f"{writer.WHAT} is written by {distribution}, which is not installed: pip install 'coopsat[export]'")
+    return writer
 
 
 def _default_out(source, run, fmt, writer, per_file):

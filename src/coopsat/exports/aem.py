@@ -17,6 +17,8 @@ from coopsat.exports.run import epochs_iso, require_attitude
 SUFFIX = ".aem"
 ONE_OBJECT_PER_FILE = True
 WHAT = "an AEM"
+LIBRARY = ("ccsds-ndm", "ccsds_ndm")
+"""The distribution that writes the format, and its import name (the ``export`` extra)."""
 
 
 def render(run, name):

@@ -20,6 +20,8 @@ from coopsat.exports.run import ExportError, epochs_iso, require_positions
 SUFFIX = ".czml"
 ONE_OBJECT_PER_FILE = False
 WHAT = "a CZML scene"
+LIBRARY = ("czml3", "czml3")
+"""The distribution that writes the format, and its import name (the ``export`` extra)."""
 
 
 # θ and the rotation are computed here in NumPy float64, as astro.earth's rotation_angle_rad and

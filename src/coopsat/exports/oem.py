@@ -12,6 +12,8 @@ from coopsat.exports.run import epochs_iso, require_positions
 SUFFIX = ".oem"
 ONE_OBJECT_PER_FILE = True
 WHAT = "an OEM"
+LIBRARY = ("ccsds-ndm", "ccsds_ndm")
+"""The distribution that writes the format, and its import name (the ``export`` extra)."""
 KM_PER_M = 1e-3
 
 

@@ -3,17 +3,13 @@ time and the run's time series on one time slider, with the published comparison
 design-time checks and the metrics. One self-contained file that works offline
 (docs/report.md).
 
-:func:`report_html` makes the page from a built scenario and its record; :func:`write_report`
-writes it atomically. ``coopsat run`` writes it into every run folder and ``coopsat report
-RUN_DIR`` makes it again from ``result.nc``.
+:func:`report_html` makes the page from a built scenario and its record. ``coopsat run`` writes
+it into every run folder and ``coopsat report RUN_DIR`` makes it again from ``result.nc``.
 """
-
-import os
-from pathlib import Path
 
 from coopsat.reports.page import ReportError
 
-__all__ = ["ReportError", "report_html", "write_report"]
+__all__ = ["ReportError", "report_html"]
 
 
 def report_html(built, ds, metrics, comparison):
@@ -56,21 +52,3 @@ def report_html(built, ds, metrics, comparison):
              f"{float(ds['time'].values[-1]):g} s"]
     sections = [page.comparison_section(comparison), page.checks_section(built.checks), page.metrics_section(metrics)]
     return page.page_html(built.scenario.name, lines, data, sections, scene.note)
-
-
-def write_report(path, built, ds, metrics, comparison):
-    """Write :func:`report_html` to ``path`` atomically (a temporary file renamed into place).
-
-    Returns
-    -------
-    Path
-    """
-    path = Path(path)
-    text = report_html(built, ds, metrics, comparison)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path

@@ -62,9 +62,9 @@ class Result:
     """The built run (:class:`coopsat.scenarios.build.Built`): the compiled system's parts, for
     figures and further analysis."""
 
-    def save(self, out_dir, *, figures=True):
+    def save(self, out_dir, *, figures=True, report=True):
         """Write the run folder ``coopsat run`` writes (result.nc, metrics.json,
-        comparison.{md,json}, figures, run.json), atomically; returns its path.
+        comparison.{md,json}, figures, report.html, run.json), atomically; returns its path.
 
         An existing folder is replaced only if it is a run folder (it holds ``run.json``).
 
@@ -72,7 +72,14 @@ class Result:
         ------
         RunFolderError
         """
-        return write_run_folder(Path(out_dir), self.built, self.dataset, self.metrics, self.comparison, figures=figures)
+        return write_run_folder(Path(out_dir), self.built, self.dataset, self.metrics, self.comparison, figures=figures,
+                                report=report)
+
+    def report_html(self):
+        """The interactive report page (``report.html``) of this run, as text."""
+        from coopsat.reports import report_html
+
+        return report_html(self.built, self.dataset, self.metrics, self.comparison)
 
     def figures(self):
         """The run's figures (matplotlib), keyed by the file stem ``save`` gives them."""
@@ -172,12 +179,21 @@ def _metric_names(built):
 def simulate_built(built, progress=False, native=None):
     """Run a built scenario; returns (dataset, RunOutput). ``native``: as
     :func:`coopsat.sim.engine.simulate`."""
-    from coopsat.sim.engine import output_specs, simulate
+    from coopsat.sim.engine import simulate
+
+    out = simulate(built.system, built.n_records, built.record_interval_s, progress=progress, names=built.names,
+                   cancel=interrupt.check, native=native)
+    return record_dataset(built, out), out
+
+
+def record_dataset(built, out, **attrs):
+    """The run's record as a Dataset, from the engine's samples (a RunOutput): what ran, when,
+    the design checks and the paper's series; ``attrs``: more global attributes (str, int or
+    float), after the standard ones."""
+    from coopsat.sim.engine import output_specs
     from coopsat.sim.recorder import to_dataset
 
     scenario = built.scenario
-    out = simulate(built.system, built.n_records, built.record_interval_s, progress=progress, names=built.names,
-                   cancel=interrupt.check, native=native)
     attrs = {
         "scenario_name": scenario.name,
         "scenario_toml": resolved_toml(scenario),
@@ -187,10 +203,11 @@ def simulate_built(built, progress=False, native=None):
         "compile_time_s": out.compile_s,
         "run_time_s": out.run_s,
         "conventions": "SI units; quaternions scalar-first, Hamilton, body to inertial",
+        **attrs,
     }
     for check in built.checks.values():
         attrs[f"check_{check.name}"] = check.note
-    return paper_series(to_dataset(out, built.names, attrs, output_specs(built.system)), built), out
+    return paper_series(to_dataset(out, built.names, attrs, output_specs(built.system)), built)
 
 
 def analyse(built, ds, compare=True):
@@ -226,8 +243,9 @@ def check_run_folder(out_dir):
     check_folder(out_dir, RUN_MARKER, "coopsat run", RunFolderError)
 
 
-def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
-    """Write result.nc, metrics.json, comparison.{md,json}, figures and run.json, atomically.
+def write_run_folder(out_dir, built, ds, metrics, rows, figures=True, report=True):
+    """Write result.nc, metrics.json, comparison.{md,json}, figures, report.html and run.json,
+    atomically.
 
     Parameters
     ----------
@@ -260,7 +278,58 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True):
 
             interrupt.check()  # the figures take seconds: a stop need not wait for them (nothing is written)
             save_figures(run_figures(built, ds), tmp)
+        if report:
+            from coopsat.reports import report_html
+
+            interrupt.check()
+            (tmp / REPORT_FILE).write_text(report_html(built, ds, metrics, rows), encoding="utf-8")
     return out_dir
+
+
+REPORT_FILE = "report.html"
+
+
+def read_record(run_dir, error):
+    """A run folder's record and the scenario it ran: (``result.nc`` as a Dataset, the
+    :class:`~coopsat.scenarios.document.Scenario` of its resolved TOML); ``error`` (an exception
+    class) names a folder without a readable record in one line."""
+    import xarray as xr
+
+    from coopsat.scenarios.document import Scenario as Document
+
+    try:
+        ds = xr.load_dataset(Path(run_dir) / "result.nc", engine="h5netcdf")
+        return ds, Document.from_toml(ds.attrs["scenario_toml"])
+    except (OSError, ValueError, KeyError) as err:
+        raise error(f"{run_dir}: no run record to read (result.nc with its scenario_toml): {err}") from None
+
+
+def load_run(run_dir):
+    """A run folder read back as a :class:`Result` (``coopsat report``, ``plot``, ``export``).
+
+    The record, metrics and comparison are read from the folder; the scenario is rebuilt from
+    the resolved TOML kept in ``result.nc`` (design results come from the disk memo when the
+    process has a persistent cache), so the design-time checks are this installation's.
+
+    Raises
+    ------
+    RunFolderError
+        Not a run folder, or one whose files cannot be read.
+    """
+    run_dir = Path(run_dir)
+    if not (run_dir / RUN_MARKER).is_file():
+        raise RunFolderError(f"{run_dir}: not a run folder (coopsat run writes {RUN_MARKER} and result.nc)")
+    ds, doc = read_record(run_dir, RunFolderError)
+    try:
+        metrics = json.loads((run_dir / "metrics.json").read_text())
+        comparison_file = run_dir / "comparison.json"
+        rows = json.loads(comparison_file.read_text()) if comparison_file.is_file() else []
+    except (OSError, ValueError) as err:
+        raise RunFolderError(f"{run_dir}: cannot read the run folder ({err})") from None
+    built = prepare(doc.model, check_published=False)
+    checks = {c.name: c for c in built.checks.values()}
+    return Result(doc, ds, metrics, rows, checks, list(built.warnings), float(ds.attrs.get("compile_time_s", 0.0)),
+                  float(ds.attrs.get("run_time_s", 0.0)), built)
 
 
 def run_figures(built, ds):
@@ -307,18 +376,11 @@ def plot_run(run_dir, what=None, out=None):
         No record in ``run_dir``, or a stem the run has no figure of (the message lists those
         it has).
     """
-    import xarray as xr
-
     from coopsat.plots.figures import figure_makers, save_figures
-    from coopsat.scenarios.document import Scenario as Document
 
     run_dir = Path(run_dir)
-    try:
-        ds = xr.load_dataset(run_dir / "result.nc", engine="h5netcdf")
-        toml = ds.attrs["scenario_toml"]
-    except (OSError, ValueError, KeyError) as err:
-        raise PlotError(f"{run_dir}: no run record to draw from (result.nc with its scenario_toml): {err}") from err
-    scenario = Document.from_toml(toml).model
+    ds, doc = read_record(run_dir, PlotError)
+    scenario = doc.model
     makers = figure_makers(ds, scenario.analysis)
     wanted = list(dict.fromkeys(what or ()))
     papers = {}
@@ -432,7 +494,8 @@ def summary_lines(result):
     return lines
 
 
-def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, on_warning=None, allow_long=False):
+def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, on_warning=None, allow_long=False,
+                 report=True):
     """Run a bundled scenario or scenario file and write its run folder (``coopsat run``).
 
     Parameters
@@ -451,6 +514,8 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
         Called with each design-time warning (one line) before the simulation starts.
     allow_long : bool
         Run even when the estimated wall time is above :data:`LONG_RUN_S`.
+    report : bool
+        Write ``report.html``.
 
     Returns
     -------
@@ -463,5 +528,5 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
     check_run_folder(target)
     result = run(doc, progress=progress, allow_long=allow_long, on_warning=on_warning)
     interrupt.check()
-    result.save(target, figures=figures)
+    result.save(target, figures=figures, report=report)
     return RunResult(target, result.dataset, result.metrics, result.comparison, result.warnings, result.compile_s, result.run_s)

@@ -206,3 +206,13 @@ def test_an_export_from_memory_equals_the_one_from_the_folder(tmp_path):
         return [line for line in text.splitlines() if not line.startswith("CREATION_DATE")]
 
     assert data(from_memory) == data(from_folder)
+
+
+def test_a_missing_writer_library_is_named_with_the_extra_that_installs_it(attitude_only, monkeypatch, tmp_path):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "ccsds_ndm" else real(name, *a))
+    with pytest.raises(ExportError, match=r"ccsds-ndm, which is not installed: pip install 'coopsat\[export\]'"):
+        export_run(attitude_only, "aem", tmp_path / "x.aem")
+    assert not (tmp_path / "x.aem").exists()

@@ -6,6 +6,7 @@ and exits with status 2, without a traceback and without leaving a half-written 
 """
 
 import argparse
+import os
 import signal
 import sys
 import threading
@@ -14,6 +15,7 @@ import warnings
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
+EXIT_BROKEN_PIPE = 141
 
 
 _process_configured = False
@@ -28,8 +30,6 @@ def configure_process(cache=True):
     JAX is not imported here (``coopsat list`` stays quick): if it is not loaded yet, the cache
     settings go into the ``JAX_*`` variables it reads when imported.
     """
-    import os
-
     from coopsat.core import runtime
 
     global _process_configured
@@ -62,14 +62,18 @@ def _input_errors():
             PairError, PluginError, NativeUnavailableError, ReportError, ExportError, PlotError)
 
 
-def _cmd_list(args):
-    from coopsat.scenarios.catalogue import bundled_names, description
-
-    names = bundled_names()
+def _print_catalogue(names, description):
+    """One line per bundled name, its description aligned after it."""
     width = max(len(n) for n in names)
     for name in names:
         print(f"{name:<{width}}  {description(name)}")
     return 0
+
+
+def _cmd_list(args):
+    from coopsat.scenarios.catalogue import bundled_names, description
+
+    return _print_catalogue(bundled_names(), description)
 
 
 def _cmd_show(args):
@@ -253,11 +257,7 @@ def _cmd_tune(args):
 def _cmd_campaign_list(args):
     from coopsat.workflows.campaign.catalogue import bundled_names, description
 
-    names = bundled_names()
-    width = max(len(n) for n in names)
-    for name in names:
-        print(f"{name:<{width}}  {description(name)}")
-    return 0
+    return _print_catalogue(bundled_names(), description)
 
 
 def _cmd_campaign_run(args):
@@ -567,6 +567,11 @@ def main(argv=None):
         return EXIT_BAD_INPUT
     except (KeyboardInterrupt, interrupt.Interrupted) as err:
         stop = getattr(err, "signum", signal.SIGINT)
+    except BrokenPipeError:
+        # The reader closed stdout (coopsat list | head): end as a Unix tool killed by SIGPIPE
+        # would, without a traceback, and keep the interpreter's final flush from failing again.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     finally:
         pending = interrupt.restore(previous)  # a signal during the command's last steps counts too
     stop = stop or pending

@@ -237,6 +237,15 @@ def test_list_prints_one_line_per_bundled_scenario(capsys):
     assert [line.split()[0] for line in lines] == names
 
 
+def test_list_into_a_closed_pipe_ends_quietly():
+    """`coopsat list | head -0`: the reader has closed the pipe before the first line; no
+    traceback, SIGPIPE's status."""
+    proc = subprocess.Popen([sys.executable, "-m", "coopsat.cli", "list"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()
+    assert proc.wait(timeout=60) == 141
+    assert proc.stderr.read() == b""
+
+
 def test_show_prints_parseable_toml(capsys):
     status, stdout, _ = run_main(capsys, ["show", "consensus-sync-a"])
     assert status == 0

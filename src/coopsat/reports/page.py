@@ -51,6 +51,11 @@ def _stride(n):
     return max(1, math.ceil(n / MAX_SERIES_POINTS))
 
 
+def _finite(value):
+    """A finite number as a float, anything else (None, inf, NaN) as None (strict JSON)."""
+    return float(value) if value is not None and math.isfinite(value) else None
+
+
 def series_json(series):
     """The time-series charts: per series, its label, unit, scale and one trace per line.
 
@@ -70,7 +75,7 @@ def series_json(series):
         t = v["time"].values[::step]
         if v.ndim == 1:
             charts.append({"name": s.name, "label": s.label, "unit": s.unit, "log": bool(s.log_scale), "t": packed(t),
-                           "traces": [{"name": s.name, "color": 0, "y": packed(v.values[::step])}]})
+                           "threshold": _finite(s.threshold), "traces": [{"name": s.name, "color": 0, "y": packed(v.values[::step])}]})
             continue
         traces = []
         for k, sc in enumerate(v["spacecraft"].values):
@@ -82,7 +87,7 @@ def series_json(series):
             for c, (label, column) in enumerate(zip(lines[extra].values, lines.values.T)):
                 traces.append({"name": f"{sc} {label}", "color": k, "dash": c, "y": packed(column)})
         charts.append({"name": s.name, "label": s.label, "unit": s.unit, "log": bool(s.log_scale), "t": packed(t),
-                       "traces": traces})
+                       "threshold": _finite(s.threshold), "traces": traces})
     return charts
 
 

@@ -211,11 +211,18 @@
       line: { width: 1.2, color: color(tr.color), dash: DASHES[(tr.dash || 0) % DASHES.length] }, hovertemplate: `%{y:.4g} ${s.unit}<extra>${tr.name}</extra>` }));
     Plotly.newPlot(div, traces, {
       height: 300, margin: { l: 70, r: 10, t: 30, b: 40 }, title: { text: s.label, font: { size: 13 } },
-      xaxis: { title: { text: "time [s]" } },
-      yaxis: { title: { text: `[${s.unit}]` }, type: s.log ? "log" : "linear", exponentformat: "power" },
-      shapes: [cursor(times[0])],
+      xaxis: { title: { text: "time (s)" } },
+      yaxis: { title: { text: `(${s.unit})` }, type: s.log ? "log" : "linear", exponentformat: "power" },
+      shapes: [cursor(times[0])].concat(level(s.threshold)),
     }, CONFIG);
+    div.dataset.threshold = s.threshold === null ? "" : String(s.threshold);
     seriesDivs.push(div);
+  }
+
+  // the [analysis] threshold a series is judged against (synchronisation), dotted
+  function level(y) {
+    return y === null ? [] : [{ type: "line", xref: "paper", x0: 0, x1: 1, y0: y, y1: y,
+      line: { color: "#d62728", width: 1, dash: "dot" } }];
   }
 
   function cursor(t) {
@@ -235,7 +242,10 @@
     label.textContent = `t = ${fmt(times[f])} s`;
     drawScene(f);
     drawNetwork(f);
-    for (const div of seriesDivs) Plotly.relayout(div, { shapes: [cursor(times[f])] });
+    for (const div of seriesDivs) {
+      const y = div.dataset.threshold === "" ? null : Number(div.dataset.threshold);
+      Plotly.relayout(div, { shapes: [cursor(times[f])].concat(level(y)) });
+    }
     document.body.dataset.frame = String(f);
   }
 

@@ -160,7 +160,7 @@ def _lvlh_scene(ds, r, axes_i, frames, names, body):
     rotated = None if axes_i is None else np.einsum("tij,tnaj->tnai", c, axes_i)[frames]
     trail = _trail_index(len(rho))
     frame = f"LVLH of {names[0]}" + (f" (orbiting the {body})" if body in ("Earth", "Sun") else "")
-    titles = ("x along-track [m]", "y −orbit normal [m]", "z towards the centre [m]")
+    titles = ("x along-track (m)", "y −orbit normal (m)", "z towards the centre (m)")
     return Scene(frame, titles, frames, rho[frames], rho[trail], rotated, 0.15 * max(spread, 1.0), None, None, "")
 
 
@@ -172,7 +172,7 @@ def _inertial_scene(ds, r, axes_i, frames, body, radius_m, targets_m):
     trail = _trail_index(len(r))
     sphere = (body, radius_m * km) if body is not None and radius_m < extent else None
     targets = None if targets_m is None else targets_m[frames] * km
-    return Scene(name, ("x [km]", "y [km]", "z [km]"), frames, r[frames] * km, r[trail] * km,
+    return Scene(name, ("x (km)", "y (km)", "z (km)"), frames, r[frames] * km, r[trail] * km,
                  None if axes_i is None else axes_i[frames], 0.12 * extent * km, sphere, targets, "")
 
 

@@ -124,13 +124,22 @@ def test_main_job_report_loads_offline_and_its_slider_moves_the_view(browser, tm
 
 
 @pytest.mark.slow
-def test_orbit_report_draws_the_earth_and_a_delay_report_its_random_delay(browser, tmp_path):
+def test_orbit_and_observation_reports_draw_the_earth_and_targets_a_delay_report_its_random_delay(browser, tmp_path):
     import coopsat
 
     orbit = coopsat.Scenario.load("rigid-body-gravity-gradient").set("sim.t_final_s", 600.0)
     coopsat.run(orbit, out_dir=tmp_path / "orbit")
     _check_page(browser, tmp_path / "orbit" / "report.html")
     assert browser.execute_script("return document.getElementById('scene').data.some(t => t.type === 'surface')")
+
+    # the target rises at 665 s: the cameras' lines of sight end on the ground after it
+    observation = coopsat.Scenario.load("observation-cooperative").set("sim.t_final_s", 800.0)
+    coopsat.run(observation, out_dir=tmp_path / "observation")
+    _check_page(browser, tmp_path / "observation" / "report.html")
+    targets = browser.execute_script(
+        "const t = document.getElementById('scene').data.find(t => t.name === 'ground target');"
+        "return t === undefined ? null : Array.from(t.x);")
+    assert targets is not None and all(x is not None for x in targets)  # the slider is at the last frame
 
     delay = coopsat.Scenario.load("delay-designed").set("sim.t_final_s", 5.0)
     coopsat.run(delay, out_dir=tmp_path / "delay")

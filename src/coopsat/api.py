@@ -134,6 +134,47 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
     return result
 
 
+def sil(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path | None = None, figures: bool = False,
+        report: bool = True, kill: Sequence[str] = (), pause: Sequence[str] = (), externals: Mapping[str, str] | None = None,
+        fault_command: str = "hold", realtime: float | None = None, answer_s: float = 10.0,
+        handshake_s: float = 120.0) -> Result:
+    """Run one scenario as software in the loop (``coopsat sil``, docs/sil.md): one flight-software
+    process per spacecraft, the simulator here; the same :class:`Result` as :func:`run`, equal to
+    it when every process answers.
+
+    Parameters
+    ----------
+    scenario, seed, out_dir, figures, report
+        As :func:`run`.
+    kill : sequence of str
+        ``"sat3@10"``: kill that spacecraft's flight software at t = 10 s.
+    pause : sequence of str
+        ``"sat3@120:30"``: stop it at t = 120 s for 30 s of simulated time.
+    externals : mapping of str to str, optional
+        ``{"sat2": "python law3.py"}``: that spacecraft's flight software is this command (it
+        speaks the protocol of docs/sil.md) instead of coopsat's own.
+    fault_command : {"hold", "zero"}
+        What a silent spacecraft's actuators execute: its last command, or zero.
+    realtime : float, optional
+        Simulated seconds per wall second (default: as fast as the processes answer).
+    answer_s, handshake_s : float
+        Longest wait for a process's answer in a period, and for every process to start, s.
+
+    Raises
+    ------
+    coopsat.workflows.sil.processes.SILError
+        A controller that cannot be split per spacecraft, a fault naming an unknown spacecraft
+        or a time outside the run, a process that does not start or answer in time (one line).
+    """
+    from coopsat.workflows.sil.run import sil as _sil
+
+    result = _sil(_document(scenario), seed=seed, kill=kill, pause=pause, externals=externals,
+                  fault_command=fault_command, realtime=realtime, answer_s=answer_s, handshake_s=handshake_s)
+    if out_dir is not None:
+        result.save(out_dir, figures=figures, report=report)
+    return result
+
+
 def load_run(run_dir: str | Path) -> Result:
     """A run folder written by ``coopsat run`` (or :meth:`Result.save`), read back.
 

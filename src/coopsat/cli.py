@@ -1,4 +1,4 @@
-"""Command line: ``coopsat list|show|validate|run|report|export|plot|margin|design|topology|tradeoff|sweep|pair|tune|campaign|bench``.
+"""Command line: ``coopsat list|show|validate|run|sil|report|export|plot|margin|design|topology|tradeoff|sweep|pair|tune|campaign|bench``.
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
@@ -128,6 +128,12 @@ def _cmd_run(args):
     if not args.quiet:
         _print(summary_lines(result))
     return 0
+
+
+def _cmd_sil(args):
+    from coopsat.workflows.sil.run import sil_command
+
+    return sil_command(args, out=print, err=lambda line: print(line, file=sys.stderr, flush=True))
 
 
 def _cmd_report(args):
@@ -337,6 +343,15 @@ def _add_run(sub):
     run.set_defaults(func=_cmd_run)
 
 
+def _add_sil(sub):
+    from coopsat.workflows.sil.options import DESCRIPTION, OPTIONS  # data only: coopsat list stays quick
+    sil = sub.add_parser("sil", help=DESCRIPTION.split(";")[0], description=DESCRIPTION)
+    for flags, options in OPTIONS:
+        sil.add_argument(*flags, **options)
+    _set_option(sil)
+    sil.set_defaults(func=_cmd_sil)
+
+
 def _add_report(sub):
     rep = sub.add_parser(
         "report", help="make a run folder's report.html again (3D view, network, time series, checks, metrics)",
@@ -529,7 +544,7 @@ def build_parser():
     """The argument parser (exposed for tests and documentation)."""
     p = argparse.ArgumentParser(prog="coopsat", description="Cooperative control of spacecraft formations.")
     sub = p.add_subparsers(dest="command", required=True)
-    for add in (_add_list, _add_show, _add_validate, _add_run, _add_report, _add_export, _add_plot, _add_margin, _add_design, _add_topology, _add_tradeoff, _add_sweep, _add_pair, _add_tune, _add_campaign, _add_bench):
+    for add in (_add_list, _add_show, _add_validate, _add_run, _add_sil, _add_report, _add_export, _add_plot, _add_margin, _add_design, _add_topology, _add_tradeoff, _add_sweep, _add_pair, _add_tune, _add_campaign, _add_bench):
         add(sub)
     return p
 

@@ -79,6 +79,34 @@ def consensus_sync_torque(q_own, omega_own, q_msg, omega_msg, dst, weight, alpha
     return -per_receiver_sum(per_link, dst, q_own.shape[-1 if axis == 0 else 0], axis)
 
 
+def consensus_sync_torque_one(q_i, omega_i, q_msg, omega_msg, weight, alpha, beta, short_way=False):
+    """Law (3) of one spacecraft: ``u_i`` from its own attitude and rate and its links.
+
+    Parameters
+    ----------
+    q_i : (4,)
+    omega_i : (3,)
+        Rad/s.
+    q_msg, omega_msg : (4, E), (3, E)
+        What spacecraft i heard on each link (component-major, one flat link axis).
+    weight : (E,)
+        ``a_ij`` of each link; 0 for a link not addressed to i, absent or lost.
+    alpha, beta, short_way
+        As :func:`consensus_sync_torque`.
+
+    Returns
+    -------
+    jax.Array, shape (3,)
+        N·m, body axes. With at most two links of nonzero weight it equals
+        :func:`consensus_sync_torque`'s column i bit for bit (adding the zero terms is exact);
+        with more, to rounding (the sum's order).
+    """
+    # The formation-wide law's arithmetic, in its order, on this spacecraft's links.
+    e_q = _vec_error(q_i[:, None], q_msg, short_way, 0)
+    per_link = weight * (alpha * e_q + beta * (omega_i[:, None] - omega_msg))
+    return -per_link.sum(axis=-1)
+
+
 def reference_attitude(q_ref0, omega_ref_b, t_s):
     """Reference ``q_r(t) = q_r(0) ⊗ exp(½ [0, ω_r] t)`` for a constant body rate ω_r.
 
@@ -179,6 +207,26 @@ class ConsensusLaw:
     def step(self, t, y, inbox, state, key):
         """Body torque command ``torque_b`` (3, n); records it, and ``q_ref`` (4,) when tracking."""
         return self.outputs(t, self.torque(t, y, inbox), state)
+
+    # The per-spacecraft form (the protocol of a LocalController, without ``local``: the
+    # compiled loop keeps the formation-wide step, a sum over the edges that scales to
+    # thousands of spacecraft; software in the loop runs one spacecraft per process).
+    reads = ("q", "omega")
+
+    def outbox_one(self, i, y_i, state_i):
+        """Spacecraft i's broadcast: its measured attitude (4,) and rate (3,)."""
+        return {"q": y_i["q"], "omega": y_i["omega"]}
+
+    def step_one(self, i, t, y_i, inbox_i, state_i, key_i):
+        """Spacecraft i's torque command (3,) N·m from its readings and the links addressed to
+        it (``inbox_i``: one flat link axis, the others zeroed); records as :meth:`step`."""
+        q_msg, omega_msg = inbox_i.msg["q"], inbox_i.msg["omega"]
+        u = consensus_sync_torque_one(y_i["q"], y_i["omega"], q_msg, omega_msg, inbox_i.weight, self.alpha, self.beta,
+                                      self.short_way)
+        if self.track:
+            q_ref = reference_attitude(self.q_ref0, self.omega_ref_b, t)
+            u = u - self.k_p * _vec_error(y_i["q"], q_ref, self.short_way, 0) - self.k_d * (y_i["omega"] - self.omega_ref_b)
+        return self.outputs(t, u, state_i)
 
     def torque(self, t, y, inbox):
         """The command (3, n) N·m of law (3), or (4) when tracking, from ``inbox``'s messages."""

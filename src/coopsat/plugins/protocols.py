@@ -151,7 +151,9 @@ class Controller(Protocol):
     The engine calls, every control period: ``outbox`` → the network's ``deliver`` → ``step``.
     A law written over links must only combine each spacecraft's own measurements with the
     messages addressed to it (``inbox.dst``); :class:`LocalController` makes the engine
-    enforce that.
+    enforce that. A formation-wide law may also offer its per-spacecraft form (``reads``,
+    ``outbox_one`` and ``step_one`` as :class:`LocalController`'s, equal to :meth:`step` per
+    spacecraft): software in the loop runs that, one process per spacecraft (docs/sil.md).
     """
 
     commands: tuple[str, ...]

@@ -34,7 +34,7 @@ from coopsat.sim.programs import _final_sample, _initial_carry, _run_chunk, _run
 from coopsat.sim.tick import _quantities
 
 __all__ = ["MAX_CHUNK", "NonFiniteStateError", "RunOutput", "bucket_runs", "output_shapes", "output_specs",
-           "run_samples", "simulate"]
+           "run_samples", "simulate", "with_native_decided"]
 
 
 class NonFiniteStateError(RuntimeError):
@@ -255,13 +255,19 @@ def simulate(system, n_records, record_interval_s, *, native=None, **options):
     for the probe takes the XLA path. The other arguments are
     :func:`simulate_as_built`'s.
     """
+    return simulate_as_built(with_native_decided(system, n_records, native), n_records, record_interval_s, **options)
+
+
+def with_native_decided(system, n_records, native=None):
+    """``system`` with ``structure.native`` False where this process will not run the native
+    kernels for a run of ``n_records`` record intervals (``native`` as :func:`simulate`)."""
     from coopsat.sim.native.capability import use_native
 
     s = system.structure
     sc_steps = n_records * s.periods_per_record * s.ticks_per_period * s.substeps * s.n_spacecraft  # of one run
     if s.native and not use_native(native, sc_steps):
         system = replace(system, structure=replace(system.structure, native=False))
-    return simulate_as_built(system, n_records, record_interval_s, **options)
+    return system
 
 
 def simulate_as_built(system, n_records, record_interval_s, *, batched=False, progress=False, chunk=None, names=None,

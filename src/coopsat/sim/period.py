@@ -50,28 +50,23 @@ def _sense(system, x, st, frame, key, t):
     return y, {**st, "sensors": tuple(states), "held": tuple(held)}
 
 
-def _command(system, x, st, tick):
-    """Sense, deliver, control and actuate at the start of a period.
-
-    Returns (pulses, states, record): one pulse per actuator, the parts' new states, and what
-    is recorded at this instant: each sensor's reading (``measured_<quantity>``), and what the
-    network, the controller, the actuators (from their state at the period's start) and the
-    disturbances record.
-    """
+def _sense_period(system, x, st, tick):
+    """The start of a period: its time ``t`` (s), its random key, the measurements ``y`` of
+    every spacecraft (component-major), the parts' states after sensing, and each sensor's
+    reading to record (``measured_<quantity>``)."""
     t = tick * system.dt_s
     frame = tick // system.structure.ticks_per_period
     key = jax.random.fold_in(system.key, frame)
     y, st = _sense(system, x, st, frame, key, t)
     measured = {f"measured_{s.quantity}": y[s.quantity] for s in system.sensors}
-    ctrl = as_flight_software(system.controller, system.structure.n_spacecraft)
-    outbox = ctrl.outbox(y, st["controller"])
-    inbox, net_state, net_record = system.network.deliver(
-        tick, outbox, st["network"], jax.random.fold_in(key, _KEY_NETWORK)
-    )
-    cmd, ctrl_state, record = native.control_step(
-        system, ctrl, t, y, inbox, st["controller"], jax.random.fold_in(key, _KEY_CONTROLLER)
-    )
-    record = {**measured, **net_record, **record}
+    return t, key, y, st, measured
+
+
+def _actuate(system, x, st, t, key, cmd, record):
+    """The end of a period's control: each actuator plans its pulse for the commands ``cmd``
+    (``{name: (3, n)}``; zero for a command the controller does not issue), the disturbances
+    update. Returns (pulses, states, record), the record extended with what the actuators
+    (from their state at the period's start) and the disturbances record."""
     pulses, act_states = [], []
     for j, (a, a_state) in enumerate(zip(system.actuators, st["actuators"])):
         record = {**record, **a.record(x, a_state)}
@@ -85,8 +80,29 @@ def _command(system, x, st, tick):
     )
     for d, d_state in zip(system.disturbances, d_states):
         record = {**record, **d.record(t, x, d_state)}
-    st = {**st, "controller": ctrl_state, "network": net_state, "actuators": tuple(act_states), "disturbances": d_states}
-    return tuple(pulses), st, record
+    return tuple(pulses), {**st, "actuators": tuple(act_states), "disturbances": d_states}, record
+
+
+def _command(system, x, st, tick):
+    """Sense, deliver, control and actuate at the start of a period.
+
+    Returns (pulses, states, record): one pulse per actuator, the parts' new states, and what
+    is recorded at this instant: each sensor's reading (``measured_<quantity>``), and what the
+    network, the controller, the actuators (from their state at the period's start) and the
+    disturbances record. Software in the loop (:mod:`coopsat.workflows.sil`) runs the same
+    steps with the flight software in other processes.
+    """
+    t, key, y, st, measured = _sense_period(system, x, st, tick)
+    ctrl = as_flight_software(system.controller, system.structure.n_spacecraft)
+    outbox = ctrl.outbox(y, st["controller"])
+    inbox, net_state, net_record = system.network.deliver(
+        tick, outbox, st["network"], jax.random.fold_in(key, _KEY_NETWORK)
+    )
+    cmd, ctrl_state, record = native.control_step(
+        system, ctrl, t, y, inbox, st["controller"], jax.random.fold_in(key, _KEY_CONTROLLER)
+    )
+    st = {**st, "controller": ctrl_state, "network": net_state}
+    return _actuate(system, x, st, t, key, cmd, {**measured, **net_record, **record})
 
 
 def _account(system, pulses):
@@ -124,15 +140,18 @@ def _period(system, carry, batched):
         pulses, st, record = _command(system, x, st, tick)
         increments = _account(system, pulses)
         pulses_now = pulses
+    x = _integrate_period(system, x, pulses_now, tick, st["disturbances"], batched)
+    acc = jax.tree_util.tree_map(jnp.add, acc, increments)
+    return (x, st, acc, tick + system.structure.ticks_per_period), (pulses, record)
+
+
+def _integrate_period(system, x, pulses, tick, d_states, batched=False):
+    """The plant over the period that starts at ``tick``: every base tick under the pulses."""
     tpp = system.structure.ticks_per_period
     t_period = tick * system.dt_s
-    d_states = st["disturbances"]
     if tpp == 1:
-        x = _integrate_tick(x, pulses_now, 0.0, t_period, d_states, system, batched)
-    else:
-        x = jax.lax.fori_loop(
-            0, tpp, lambda k, xx: _integrate_tick(xx, pulses_now, k * system.dt_s, t_period, d_states, system, batched), x
-        )
-    acc = jax.tree_util.tree_map(jnp.add, acc, increments)
-    return (x, st, acc, tick + tpp), (pulses, record)
+        return _integrate_tick(x, pulses, 0.0, t_period, d_states, system, batched)
+    return jax.lax.fori_loop(
+        0, tpp, lambda k, xx: _integrate_tick(xx, pulses, k * system.dt_s, t_period, d_states, system, batched), x
+    )
 

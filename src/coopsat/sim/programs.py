@@ -132,6 +132,14 @@ def _initial_carry(system):
     The network's history before t = 0 is the first outbox (a constant initial function, as
     is usual for delay equations).
     """
+    (x0, st, acc, tick), y0 = _initial_parts(system)
+    outbox0 = as_flight_software(system.controller, system.structure.n_spacecraft).outbox(y0, st["controller"])
+    return (x0, {**st, "network": system.network.init(outbox0)}, acc, tick)
+
+
+def _initial_parts(system):
+    """The carry at t = 0 without the network's state (``()``), and the first measurements
+    ``y0``, from which the flight software's first outbox fills the network's history."""
     system_cm = _engine_view(system)
     x0 = jax.tree_util.tree_map(_cm, system.x0)
     x0 = x0._replace(q_bi=quat_normalize(x0.q_bi, AXIS))
@@ -146,11 +154,10 @@ def _initial_carry(system):
         "network": (),
     }
     y0, _ = _sense(system_cm, x0, st, 0, jax.random.fold_in(system.key, 0), 0.0)
-    st["network"] = system.network.init(as_flight_software(system.controller, n).outbox(y0, st["controller"]))
     zeros = jax.eval_shape(
         lambda: _account(system_cm, tuple(a.plan(jnp.zeros_like(x0.omega_b), x0, s, system_cm.period_s, system.key, 0.0)[0]
                                           for a, s in zip(system_cm.actuators, st["actuators"])))
     )
     acc = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), zeros)
-    return (x0, st, acc, jnp.zeros((), jnp.int64))
+    return (x0, st, acc, jnp.zeros((), jnp.int64)), y0
 

@@ -1,0 +1,343 @@
+"""The simulator's side of a SIL run: the closed loop one control period at a time, with the
+flight software in other processes.
+
+A period is the compiled loop's period (:mod:`coopsat.sim.period`) cut where the flight
+software runs:
+
+    begin (jitted: sense, the period's keys) → each process: ``sense`` → ``outbox``
+    → deliver (jitted: the network part's own ``deliver``) → each process: ``inbox`` → ``command``
+    → end (jitted: actuate, account, integrate the period)
+
+Records are taken as the compiled loop takes them (:mod:`coopsat.sim.programs`: the sample at a
+record interval's start, the actuators' means over it, the final sample after the last
+period), and assembled by the engine's own function, so the run's dataset is built as
+``coopsat run``'s is. With every process answering, the result equals ``coopsat run``'s (the same
+functions on the same numbers; docs/sil.md says to what precision and why).
+
+A spacecraft whose process is killed or paused is *silent*: the simulator executes its last
+command (or zero), records its controller's last record (or zeros), and the links it
+transmits on are lost from that period on, by the network's rule for a lost message: held
+(the last message each receiver got on the link) where the network holds lost messages
+(``on_loss = "hold"``), else dropped (weight 0). Its slot in the network's history keeps its last
+broadcast.
+"""
+
+import math
+import pickle
+import time
+from dataclasses import dataclass, field
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from coopsat.sim.engine import RunOutput, _assemble, _check_finite, output_shapes
+from coopsat.sim.layout import _engine_view
+from coopsat.sim.period import (_KEY_CONTROLLER, _KEY_NETWORK, _account, _actuate, _integrate_period, _sense_period,
+                                _truth)
+from coopsat.sim.programs import _initial_parts, _means
+from coopsat.workflows import interrupt
+from coopsat.workflows.sil import protocol
+
+
+@dataclass
+class Fault:
+    """One injected fault: ``kind`` "kill" (for good) or "pause" (for ``duration_s``) of the
+    flight software of ``name`` from ``t_s`` (s of simulated time; it takes effect at the
+    first control period that starts at or after it)."""
+
+    kind: str
+    name: str
+    t_s: float
+    duration_s: float = 0.0
+
+
+@dataclass
+class Events:
+    """What happened to the processes, in simulated time (the run folder records it)."""
+
+    rows: list = field(default_factory=list)
+
+    def add(self, name, what, t_s):
+        self.rows.append({"spacecraft": name, "event": what, "t_s": t_s, "wall_utc": time.time()})
+
+
+@partial(jax.jit, static_argnames=("reads",))
+def _begin(system, x, st, tick, reads):
+    """Sense at the period's start. Returns t (s), the readings the flight software reads
+    (``{quantity: (k, n)}``), the states, the sensors' record, the true state, the period's key,
+    the network's key and each spacecraft's controller key (``fold_in(key, i)``, (n, 2))."""
+    t, key, y, st, measured = _sense_period(system, x, st, tick)
+    ctrl_key = jax.random.fold_in(key, _KEY_CONTROLLER)
+    keys = jax.vmap(lambda i: jax.random.fold_in(ctrl_key, i))(jnp.arange(system.structure.n_spacecraft))
+    return t, {q: y[q] for q in reads}, st, measured, _truth(system, x), key, jax.random.fold_in(key, _KEY_NETWORK), keys
+
+
+def _host(tree):
+    """The tree's arrays as NumPy arrays (``jax.device_get`` costs ten times more per leaf)."""
+    return jax.tree_util.tree_map(np.asarray, tree)
+
+
+@jax.jit
+def _network_init(system, outbox):
+    return system.network.init(outbox)
+
+
+@jax.jit
+def _deliver(system, tick, outbox, net_state, key):
+    """The network part's ``deliver``, its links flat (as the compiled loop flattens them for
+    per-spacecraft flight software): messages ``{name: (k, E)}``, weights (E,)."""
+    inbox, net_state, record = system.network.deliver(tick, outbox, net_state, key)
+    links = inbox.weight.ndim
+    msg = jax.tree_util.tree_map(lambda m: m.reshape(m.shape[: m.ndim - links] + (-1,)), inbox.msg)
+    return msg, inbox.weight.reshape(-1), net_state, record
+
+
+@partial(jax.jit, static_argnames=("reads",))
+def _end_begin(system, x, st, acc, tick, t, key, cmd, record, reads):
+    """Actuate, account and integrate the period, then begin the next one (one program, not
+    two: a dispatch costs more than the period's arithmetic). Returns the next carry, the
+    period's record, and :func:`_begin`'s values for the next period."""
+    pulses, st, record = _actuate(system, x, st, t, key, cmd, record)
+    increments = _account(system, pulses)
+    x = _integrate_period(system, x, pulses, tick, st["disturbances"])
+    acc = jax.tree_util.tree_map(jnp.add, acc, increments)
+    tick = tick + system.structure.ticks_per_period
+    return (x, acc, tick, record), _begin(system, x, st, tick, reads)
+
+
+@jax.jit
+def _final(system, x, st, acc, truth, t, key, cmd, record):
+    """The last sample (as :func:`coopsat.sim.programs._final_sample`)."""
+    pulses, _, record = _actuate(system, x, st, t, key, cmd, record)
+    inc = _account(system, pulses)
+    means = {a.mean_output[0]: inc[a.mean_output[1]] / system.period_s for a in system.actuators}
+    return {**truth, **acc, **record, **means}
+
+
+_interval_means = jax.jit(lambda system, before, after: _means(system, before, after,
+                                                                system.period_s * system.structure.periods_per_record))
+
+
+def setup_messages(built, system, controller, y0):
+    """Each spacecraft's ``setup`` message (protocol version 1; docs/sil.md)."""
+    names = list(built.names)
+    dst = np.asarray(system.network.dst).reshape(-1)
+    src = np.asarray(system.network.src).reshape(-1)
+    part = pickle.dumps(jax.tree_util.tree_map(np.asarray, controller))
+    table = built.scenario.controller.model_dump(mode="json")
+    common = {
+        "type": protocol.SETUP, "version": protocol.VERSION, "names": names,
+        "period_s": float(system.period_s), "reads": {q: list(np.shape(y0[q])[:-1]) for q in controller.reads},
+        "commands": list(controller.commands), "controller": table, "part": part,
+    }
+    messages = {}
+    for i, name in enumerate(names):
+        mine = np.flatnonzero(dst == i)
+        messages[name] = {**common, "name": name, "index": i,
+                          "links": {"dst": dst.tolist(), "mine": mine.tolist(), "from": [names[s] for s in src[mine]]}}
+    return messages
+
+
+def _period_of(t_s, period_s):
+    """The first control period that starts at or after ``t_s``."""
+    return math.ceil(t_s / period_s - 1e-9)
+
+
+def _schedule(faults, period_s):
+    """The faults as (period, action, name, fault) in period order: kill, pause, resume."""
+    plan = []
+    for f in faults:
+        plan.append((_period_of(f.t_s, period_s), f.kind, f.name, f))
+        if f.kind == "pause":
+            plan.append((_period_of(f.t_s + f.duration_s, period_s), "resume", f.name, f))
+    return sorted(plan, key=lambda row: row[0])
+
+
+class _Silence:
+    """What stands in for a silent spacecraft: its last broadcast, and its last command and
+    record (or zeros, without ``hold_commands``)."""
+
+    def __init__(self, names, hold_commands):
+        self.names = names
+        self.hold_commands = hold_commands
+        self.msg, self.cmd, self.record = {}, {}, {}
+
+    def outbox(self, replies):
+        """``{name: (k, n)}``: each spacecraft's broadcast, or its last one when silent."""
+        for name, r in replies.items():
+            self.msg[name] = {k: np.asarray(v, np.float64) for k, v in r["msg"].items()}
+        some = next(iter(self.msg.values()))
+        return {k: np.stack([self.msg[n][k] if n in self.msg else np.zeros_like(v) for n in self.names], axis=-1)
+                for k, v in some.items()}
+
+    def commands(self, replies, shapes, record_specs):
+        """The commands ``{name: (3, n)}`` and the controller's record, silent ones standing in."""
+        for name, r in replies.items():
+            self.cmd[name] = {k: np.asarray(v, np.float64) for k, v in r["commands"].items()}
+            self.record[name] = {k: np.asarray(v, np.float64) for k, v in r["record"].items()}
+        cmd = {k: np.stack([self._value(self.cmd, n, k, shape, replies) for n in self.names], axis=-1)
+               for k, shape in shapes.items()}
+        record = {}
+        for k, (shape, per_spacecraft) in record_specs.items():
+            if per_spacecraft:
+                record[k] = np.stack([self._value(self.record, n, k, shape, replies) for n in self.names], axis=-1)
+            else:  # one value per instant (a reference): any answering process's
+                record[k] = next((self.record[n][k] for n in self.names if n in replies), np.zeros(shape))
+        return cmd, record
+
+    def _value(self, table, name, k, shape, replies):
+        if name in replies or (self.hold_commands and name in table):
+            return table[name][k]
+        return np.zeros(shape)
+
+
+class _Links:
+    """Which flat links each spacecraft hears and which it transmits on, and what a silent
+    transmitter's links carry (held or dropped: the module docstring)."""
+
+    def __init__(self, network, n):
+        self.src = np.asarray(network.src).reshape(-1)
+        self.mine = [np.flatnonzero(np.asarray(network.dst).reshape(-1) == i) for i in range(n)]
+        self.hold = bool(getattr(network, "lossy", False) and getattr(network, "hold", False))
+        self.held = None
+
+    def silence(self, msg, weight, live):
+        """The delivered ``msg`` ``{name: (k, E)}`` and ``weight`` (E,) with the links of the
+        spacecraft not in ``live`` (indices) lost."""
+        silent = ~np.isin(self.src, live)
+        if silent.any():
+            if self.hold and self.held is not None:
+                msg = {k: np.where(silent, self.held[k], m) for k, m in msg.items()}
+            else:
+                weight = np.where(silent, 0.0, weight)
+        self.held = msg
+        return msg, weight
+
+
+class _Loop:
+    """The SIL closed loop of one run (:func:`run_loop` says what it takes)."""
+
+    def __init__(self, built, system, fleet, controller, hold_commands):
+        self.names = list(built.names)
+        self.view = _engine_view(system)
+        self.fleet = fleet
+        self.reads = tuple(controller.reads)
+        self.links = _Links(system.network, len(self.names))
+        recorded = output_shapes(system)  # interface layout: (n, k…) per spacecraft
+        self.record_specs = {k: (recorded[k][1:] if spec.per_spacecraft else recorded[k], spec.per_spacecraft)
+                             for k, spec in controller.output_specs().items()}
+        self.command_shapes = {c: (3,) for c in controller.commands}
+        self.silence = _Silence(self.names, hold_commands)
+        self.net_state = None
+
+    def live(self):
+        """Indices of the spacecraft whose flight software answers this period."""
+        gone = self.fleet.killed | self.fleet.paused
+        return [i for i, n in enumerate(self.names) if n not in gone]
+
+    def control(self, p, tick, begun):
+        """Both rounds of period ``p`` with the processes that answer, and the network between
+        them; ``begun``: :func:`_begin`'s values. Returns the commands and the record so far."""
+        t, y, _, measured, _, _, net_key, keys = begun
+        y, keys, t_s = _host((y, keys, t))
+        t_s, live = float(t_s), self.live()
+        replies = self.fleet.exchange({self.names[i]: {"type": protocol.SENSE, "k": p, "t": t_s,
+                                                       "y": {q: y[q][..., i].tolist() for q in y}} for i in live},
+                                      protocol.OUTBOX, p)
+        outbox = self.silence.outbox(replies)
+        if self.net_state is None:  # the history before t = 0 is the first outbox
+            self.net_state = _network_init(self.view, outbox)
+        msg, weight, self.net_state, net_record = _deliver(self.view, tick, outbox, self.net_state, net_key)
+        msg, weight = self.links.silence(*_host((msg, weight)), live)
+        mine = self.links.mine
+        replies = self.fleet.exchange({self.names[i]: {"type": protocol.INBOX, "k": p, "t": t_s,
+                                                       "msg": {k: m[..., mine[i]].tolist() for k, m in msg.items()},
+                                                       "weight": weight[mine[i]].tolist(), "key": keys[i].tolist()}
+                                       for i in live}, protocol.COMMAND, p)
+        cmd, ctrl_record = self.silence.commands(replies, self.command_shapes, self.record_specs)
+        return cmd, {**measured, **net_record, **ctrl_record}
+
+
+def _apply_faults(plan, p, period_s, fleet, events):
+    """Carry out the faults due at period ``p`` (``plan``: :func:`_schedule`'s, consumed)."""
+    while plan and plan[0][0] <= p:
+        _, action, name, _ = plan.pop(0)
+        if action == "kill" and name not in fleet.killed:
+            fleet.kill(name)
+        elif action == "pause" and name not in fleet.killed:
+            fleet.pause(name)
+        elif action == "resume" and name in fleet.paused:
+            fleet.resume(name)
+        else:
+            continue
+        events.add(name, {"kill": "killed", "pause": "paused", "resume": "resumed"}[action], p * period_s)
+
+
+def run_loop(built, system, fleet, controller, n_records, *, handshake_s, faults=(), hold_commands=True, realtime=None,
+             progress=None):
+    """Run the SIL closed loop; returns (RunOutput, Events).
+
+    Parameters
+    ----------
+    built : coopsat.scenarios.build.Built
+    system : System
+        The run's system, the native kernels decided (:func:`~coopsat.sim.engine.with_native_decided`).
+    fleet : coopsat.workflows.sil.processes.Fleet
+        Started, its handshake not yet made.
+    controller : part
+        The controller's per-spacecraft form (``reads``, ``outbox_one``, ``step_one``).
+    n_records : int
+    handshake_s : float
+        Longest wait for every process's handshake, s.
+    faults : sequence of Fault
+    hold_commands : bool
+        A silent spacecraft's actuators execute its last command (else zero).
+    realtime : float, optional
+        Pace the run at this many simulated seconds per wall second (default: as fast as the
+        processes answer).
+    progress : callable, optional
+        Called with the records done so far after each record.
+    """
+    loop = _Loop(built, system, fleet, controller, hold_commands)
+    view, ppr = loop.view, system.structure.periods_per_record
+    period_s = float(system.period_s)
+    (x, st, acc, tick), y0 = jax.jit(_initial_parts)(system)
+    fleet.handshake(setup_messages(built, system, controller, y0), handshake_s)
+    plan, events, chunks = _schedule(faults, period_s), Events(), []
+    begun = _begin(view, x, st, tick, loop.reads)
+    t0, compile_s = time.perf_counter(), 0.0
+    for p in range(n_records * ppr + 1):
+        interrupt.check()
+        _apply_faults(plan, p, period_s, fleet, events)
+        if realtime:
+            time.sleep(max(0.0, t0 + p * period_s / realtime - time.perf_counter()))
+        cmd, record = loop.control(p, tick, begun)
+        t, _, st, _, truth, key, _, _ = begun
+        if p == n_records * ppr:
+            last = _host(_final(view, x, st, acc, truth, t, key, cmd, record))
+            break
+        acc_before = acc
+        (x, acc, tick, record), begun = _end_begin(view, x, st, acc, tick, t, key, cmd, record, loop.reads)
+        if p % ppr == 0:  # a record interval starts: its sample (as coopsat.sim.programs._block)
+            start, acc_start = {**truth, **acc_before, **record}, acc_before
+        if p % ppr == ppr - 1:
+            chunks.append(_host({**start, **_interval_means(view, acc_start, acc)}))
+            if progress is not None:
+                progress(len(chunks))
+        if p == 0:
+            compile_s = time.perf_counter() - t0
+    return _output(built, system, chunks, last, n_records, compile_s, time.perf_counter() - t0 - compile_s), events
+
+
+def _output(built, system, chunks, last, n_records, compile_s, run_s):
+    """The samples as the engine returns them (:class:`~coopsat.sim.engine.RunOutput`),
+    checked for non-finite states."""
+    names = list(built.names)
+    stacked = {k: np.stack([c[k] for c in chunks]) for k in chunks[0]}
+    t_samples = np.arange(n_records + 1) * float(built.record_interval_s)
+    _check_finite(stacked, t_samples, 0, False, names)
+    _check_finite({k: np.expand_dims(v, 0) for k, v in last.items()}, t_samples, n_records, False, names)
+    samples = _assemble(system, [stacked], last, n_records, None)
+    return RunOutput(t_s=t_samples, samples=samples, compile_s=compile_s, run_s=run_s)

@@ -1,0 +1,265 @@
+"""The flight-software processes of a SIL run: started, answered, paused, killed, reaped.
+
+Every process is a child of the simulator, in its process group, and started through a
+launcher that asks Linux to kill it when the simulator dies (``PR_SET_PDEATHSIG``) before it
+becomes the flight software (``exec``): so a simulator killed outright (SIGKILL) leaves none
+behind. Otherwise :meth:`Fleet.close` (a ``with`` block's exit, and ``atexit`` as a last
+resort) stops them: a ``stop`` message, a short wait, then SIGKILL (which also ends a paused
+one), then ``wait`` so that none stays a zombie. No receive waits forever: every wait polls in
+short slices, checks the processes it waits on, and has a deadline.
+"""
+
+import atexit
+import os
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from coopsat.scenarios.load import ScenarioError
+from coopsat.workflows import interrupt
+from coopsat.workflows.sil import protocol
+
+POLL_SLICE_MS = 100
+"""Longest time one poll blocks before the waits check for a stop request and dead processes."""
+
+STOP_GRACE_S = 2.0
+"""How long :meth:`Fleet.close` waits for the processes to leave after ``stop``, s."""
+
+_LAUNCHER = (
+    "import ctypes, os, signal, sys\n"
+    "try:\n"
+    "    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG (Linux)\n"
+    "except (AttributeError, OSError):\n"
+    "    pass\n"
+    f"if os.getppid() != int(os.environ['{protocol.PARENT_ENV}']):\n"
+    "    os._exit(1)  # the simulator died before the line above: nobody to fly for\n"
+    "os.execvp(sys.argv[1], sys.argv[1:])\n"
+)
+"""Runs in the child before it becomes the flight software: die with the simulator."""
+
+
+class SILError(ScenarioError):
+    """A SIL run that cannot start or go on: bad input, or a flight-software process that did
+    not start, did not answer in time or broke the protocol (one line; the command line's
+    bad-input status, 2, as every ScenarioError)."""
+
+
+def builtin_command():
+    """The command of coopsat's own flight-software host (:mod:`coopsat.workflows.sil.fsw`)."""
+    return [sys.executable, "-m", "coopsat.workflows.sil.fsw"]
+
+
+class Fleet:
+    """One flight-software process per spacecraft, and the simulator's socket.
+
+    Parameters
+    ----------
+    commands : dict of str -> list of str
+        Each spacecraft's command (argv), in spacecraft order.
+    answer_s : float
+        Longest wait for an answer in a control period, s.
+    """
+
+    def __init__(self, commands, answer_s):
+        import zmq
+
+        self.names = list(commands)
+        self.answer_s = answer_s
+        self.procs = {}
+        self.identity = {}  # name -> the ZeroMQ routing id its hello came from
+        self.paused = set()
+        self.killed = set()
+        self._dir = Path(tempfile.mkdtemp(prefix="coopsat-sil-"))  # private (0700): the socket and the logs
+        self._ctx = zmq.Context()
+        self._sock = self._ctx.socket(zmq.ROUTER)
+        self._sock.linger = 0
+        self._sock.router_mandatory = 1  # a send to a process that is gone raises instead of vanishing
+        if zmq.has("ipc"):
+            self.endpoint = f"ipc://{self._dir / 'sim'}"
+            self._sock.bind(self.endpoint)
+        else:
+            port = self._sock.bind_to_random_port("tcp://127.0.0.1")
+            self.endpoint = f"tcp://127.0.0.1:{port}"
+        self._poller = zmq.Poller()
+        self._poller.register(self._sock, zmq.POLLIN)
+        atexit.register(self.close)
+        self._commands = commands
+
+    def start(self):
+        """Start every process (its output goes to a log file, quoted when it fails)."""
+        for name, argv in self._commands.items():
+            env = {**os.environ, protocol.ENDPOINT_ENV: self.endpoint, protocol.NAME_ENV: name,
+                   protocol.PARENT_ENV: str(os.getpid())}
+            log = open(self._dir / f"{name}.log", "wb")
+            try:
+                self.procs[name] = subprocess.Popen([sys.executable, "-c", _LAUNCHER, *argv], env=env, stdout=log,
+                                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+            finally:
+                log.close()
+
+    def pids(self):
+        """Process id of each spacecraft's flight software."""
+        return {name: p.pid for name, p in self.procs.items()}
+
+    def handshake(self, setups, timeout_s):
+        """Answer each process's ``hello`` with its ``setup`` and wait for its ``ready``.
+
+        Parameters
+        ----------
+        setups : dict of str -> dict
+            Each spacecraft's ``setup`` message.
+        timeout_s : float
+            Longest wait for the whole handshake, s.
+        """
+        deadline = time.monotonic() + timeout_s
+        ready = set()
+        while len(ready) < len(self.names):
+            waiting = [n for n in self.names if n not in self.identity] or [n for n in self.names if n not in ready]
+            late = ("did not say hello (did it start? does it speak docs/sil.md's protocol?)"
+                    if waiting[0] not in self.identity else "did not get ready (its setup)")
+            got = self._receive(waiting, deadline, f"{late} within {timeout_s:g} s")
+            if got is None:
+                continue
+            identity, message = got
+            kind = message["type"]
+            if kind == protocol.HELLO:
+                name = message.get("name")
+                if name not in self.procs or name in self.identity:
+                    raise SILError(f"a flight-software process said hello as {name!r}, which is not a spacecraft waiting "
+                                   f"for one (expected one of {', '.join(waiting)})")
+                if message.get("version") != protocol.VERSION:
+                    raise SILError(f"{name}'s flight software speaks SIL protocol version {message.get('version')!r}; "
+                                   f"this simulator speaks {protocol.VERSION}")
+                self.identity[name] = identity
+                self._send(name, setups[name])
+            elif kind == protocol.READY:
+                ready.add(self._name_of(identity))
+            else:
+                raise SILError(f"{self._name_of(identity)}'s flight software sent '{kind}' during the handshake")
+
+    def exchange(self, messages, answer, k):
+        """Send each named process its message and collect each one's answer of type
+        ``answer`` for period ``k``; returns ``{name: message}``."""
+        for name, message in messages.items():
+            self._send(name, message)
+        deadline = time.monotonic() + self.answer_s
+        replies = {}
+        while len(replies) < len(messages):
+            waiting = [n for n in messages if n not in replies]
+            got = self._receive(waiting, deadline, f"did not answer period {k} within {self.answer_s:g} s")
+            if got is None:
+                continue
+            identity, message = got
+            if message.get("k") != k or message["type"] != answer:
+                continue  # a late answer to an earlier period (a process paused mid-answer)
+            replies[self._name_of(identity)] = message
+        return replies
+
+    def _send(self, name, message):
+        import zmq
+
+        try:
+            self._sock.send_multipart([self.identity[name], protocol.encode(message)])
+        except zmq.ZMQError as err:
+            raise SILError(f"{name}'s flight software cannot be reached ({err}){self._log_tail(name)}") from None
+
+    def _name_of(self, identity):
+        for name, ident in self.identity.items():
+            if ident == identity:
+                return name
+        raise SILError("a message came from a process that never said hello")
+
+    def _receive(self, waiting, deadline, late):
+        """One message ``(identity, message)``, or None after a poll slice with none; raises
+        :class:`SILError` when a process waited on has exited or the deadline has passed, and
+        :class:`~coopsat.workflows.interrupt.Interrupted` on a stop request."""
+        if self._poller.poll(POLL_SLICE_MS):
+            identity, frame = self._sock.recv_multipart()
+            try:
+                message = protocol.decode(frame)
+            except ValueError as err:
+                raise SILError(f"{self._name_of(identity)}'s flight software: {err}") from None
+            if message["type"] == protocol.ERROR:
+                raise SILError(f"{self._name_of(identity)}'s flight software failed: {message.get('message', '')}")
+            return identity, message
+        interrupt.check()  # a Ctrl-C at the terminal reaches the flight software too: a stop, not a crash
+        for name in waiting:
+            code = self.procs[name].poll()
+            if code is not None:
+                raise SILError(f"{name}'s flight software exited ({_status(code)}) without being told to"
+                               f"{self._log_tail(name)}")
+        if time.monotonic() > deadline:
+            raise SILError(f"{', '.join(waiting)}: flight software {late}{self._log_tail(waiting[0])}")
+        return None
+
+    def _log_tail(self, name):
+        """The last line of a process's output, as ``": LINE"`` (empty when it wrote none)."""
+        try:
+            lines = (self._dir / f"{name}.log").read_text(errors="replace").strip().splitlines()
+        except OSError:
+            return ""
+        return f": {lines[-1].strip()}" if lines else ""
+
+    def kill(self, name):
+        """SIGKILL one spacecraft's flight software and reap it."""
+        proc = self.procs[name]
+        proc.kill()
+        proc.wait()
+        self.killed.add(name)
+        self.paused.discard(name)
+
+    def pause(self, name):
+        """SIGSTOP one spacecraft's flight software (it is idle, waiting for its next message)."""
+        os.kill(self.procs[name].pid, signal.SIGSTOP)
+        self.paused.add(name)
+
+    def resume(self, name):
+        """SIGCONT a paused flight software."""
+        os.kill(self.procs[name].pid, signal.SIGCONT)
+        self.paused.discard(name)
+
+    def close(self):
+        """Stop every process and reap it; remove the socket and the logs. Idempotent."""
+        atexit.unregister(self.close)
+        if self._ctx is None:
+            return
+        for name, proc in self.procs.items():
+            if proc.poll() is None and name in self.identity and name not in self.paused:
+                try:
+                    self._send(name, {"type": protocol.STOP})
+                except Exception:  # noqa: BLE001 - a process that is gone: it is killed below anyway
+                    pass
+        deadline = time.monotonic() + STOP_GRACE_S
+        for proc in self.procs.values():
+            try:
+                proc.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass
+        for proc in self.procs.values():
+            if proc.poll() is None:
+                proc.kill()  # ends a stopped (paused) process too
+            proc.wait()
+        self._sock.close(0)
+        self._ctx.term()
+        self._ctx = None
+        shutil.rmtree(self._dir, ignore_errors=True)
+
+
+def _status(code):
+    return f"killed by {signal.Signals(-code).name}" if code < 0 else f"status {code}"
+
+
+def external_command(text, name):
+    """An ``--external`` command line as argv (no shell: nothing between the simulator and
+    the process it must be able to kill)."""
+    argv = shlex.split(text)
+    if not argv:
+        raise SILError(f"--external {name}: empty command")
+    if shutil.which(argv[0]) is None:
+        raise SILError(f"--external {name}: cannot start {argv[0]!r} (not found or not executable)")
+    return argv

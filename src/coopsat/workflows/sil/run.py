@@ -1,0 +1,182 @@
+"""A scenario run as software in the loop (``coopsat sil``, :func:`coopsat.sil`): checks, the
+processes, the loop, and the same :class:`~coopsat.workflows.pipeline.Result` as ``coopsat run``.
+
+The scenario is built and analysed by the pipeline's own functions; only the closed loop is
+the SIL's (:mod:`~coopsat.workflows.sil.loop`). The record's attributes say that it was a SIL
+run, with which protocol and processes, and every fault injected (``sil_events``: JSON, one
+entry per kill, pause and resume, at its simulated time), so the run folder written by
+:meth:`Result.save` records when and what.
+"""
+
+import json
+import re
+
+from coopsat.workflows import interrupt
+from coopsat.workflows.sil.loop import Fault
+from coopsat.workflows.sil.processes import SILError, builtin_command, external_command
+
+ANSWER_S = 10.0
+"""Default longest wait for a flight-software answer in one control period, s."""
+
+HANDSHAKE_S = 120.0
+"""Default longest wait for every process to start and finish its handshake, s (twenty JAX
+processes starting together on two cores take about a minute)."""
+
+_FAULT = re.compile(r"^(?P<name>[^@]+)@(?P<t>[^:]+)(?::(?P<d>.+))?$")
+
+
+def per_spacecraft_form(controller, kind):
+    """The controller as one flight software per spacecraft: the part itself when it is local or
+    offers a per-spacecraft form (``reads``, ``outbox_one``, ``step_one``).
+
+    Raises
+    ------
+    SILError
+        A formation-wide law without a per-spacecraft form, saying why.
+    """
+    if all(hasattr(controller, a) for a in ("reads", "outbox_one", "step_one")):
+        return controller
+    raise SILError(
+        f"controller kind '{kind}' cannot be split per spacecraft: its step computes every spacecraft's command at "
+        "once (sums over the whole formation's links) and it offers no per-spacecraft form (reads, outbox_one, "
+        "step_one; docs/sil.md)"
+    )
+
+
+def parse_fault(text, kind, names, t_final_s):
+    """``NAME@T_S`` (kind "kill") or ``NAME@T_S:DURATION_S`` (kind "pause") as a :class:`Fault`.
+
+    Raises
+    ------
+    SILError
+        Malformed, an unknown spacecraft, or a time outside the run.
+    """
+    option = f"--{kind} {text}"
+    m = _FAULT.match(text.strip())
+    if m is None or (kind == "kill") != (m["d"] is None):
+        form = "NAME@T_S" if kind == "kill" else "NAME@T_S:DURATION_S"
+        raise SILError(f"{option}: give {form} (e.g. {'sat3@10' if kind == 'kill' else 'sat3@120:30'})")
+    if m["name"] not in names:
+        raise SILError(f"{option}: no spacecraft '{m['name']}' (spacecraft: {', '.join(names)})")
+    try:
+        t_s, duration_s = float(m["t"]), float(m["d"] or 0.0)
+    except ValueError:
+        raise SILError(f"{option}: times are numbers of seconds") from None
+    if not 0.0 <= t_s < t_final_s:
+        raise SILError(f"{option}: t = {t_s:g} s is outside the run (0 to {t_final_s:g} s)")
+    if kind == "pause" and not duration_s > 0.0:
+        raise SILError(f"{option}: the pause must last more than 0 s")
+    return Fault(kind, m["name"], t_s, duration_s)
+
+
+def _commands(names, externals):
+    """Each spacecraft's flight-software command: coopsat's own host, or the external one."""
+    unknown = [n for n in externals if n not in names]
+    if unknown:
+        raise SILError(f"--external {unknown[0]}: no such spacecraft (spacecraft: {', '.join(names)})")
+    return {n: external_command(externals[n], n) if n in externals else builtin_command() for n in names}
+
+
+def parse_externals(assignments):
+    """``--external NAME=COMMAND`` options as ``{name: command}``."""
+    externals = {}
+    for text in assignments:
+        name, sep, command = text.partition("=")
+        if not sep or not name.strip():
+            raise SILError(f'--external {text}: give NAME="COMMAND" (e.g. sat2="python law3.py")')
+        externals[name.strip()] = command
+    return externals
+
+
+def sil_command(args, out, err):
+    """``coopsat sil``: run, write the folder, report; ``args`` the parsed options
+    (:mod:`~coopsat.workflows.sil.options`), ``out``/``err`` print a line to stdout/stderr.
+    Returns the exit status (0)."""
+    import jax
+
+    from coopsat.workflows.pipeline import check_run_folder, summary_lines
+
+    # A few small programs per control period: inline on the CPU they cost half as much (set
+    # before JAX's CPU client starts; the command's process is coopsat's own).
+    jax.config.update("jax_cpu_enable_async_dispatch", False)
+    check_run_folder(args.out)
+    result = sil(args.scenario, overrides=args.set, kill=args.kill, pause=args.pause,
+                 externals=parse_externals(args.external), fault_command=args.fault_command, realtime=args.realtime,
+                 answer_s=args.answer_timeout, handshake_s=args.start_timeout,
+                 on_warning=lambda note: err(f"warning: {note}"),
+                 on_start=lambda pids: err("sil: flight software " + ", ".join(f"{n} pid {p}" for n, p in pids.items())))
+    result.save(args.out, figures=not args.no_figures, report=not args.no_report)
+    out(f"wrote {args.out}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
+    for e in json.loads(result.dataset.attrs["sil_events"]):
+        out(f"  sil: {e['spacecraft']} {e['event']} at t = {e['t_s']:g} s")
+    if not args.quiet:
+        for line in summary_lines(_Summary(result, args.out)):
+            out(line)
+    return 0
+
+
+class _Summary:
+    """What :func:`coopsat.workflows.pipeline.summary_lines` reads of a run."""
+
+    def __init__(self, result, out_dir):
+        self.metrics, self.comparison, self.out_dir = result.metrics, result.comparison, out_dir
+
+
+def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None, fault_command="hold", realtime=None,
+        answer_s=ANSWER_S, handshake_s=HANDSHAKE_S, on_warning=None, on_start=None, progress=None):
+    """Run a scenario with one flight-software process per spacecraft; returns a
+    :class:`~coopsat.workflows.pipeline.Result` (nothing written; :meth:`Result.save` writes the
+    run folder). The arguments are :func:`coopsat.api.sil`'s; ``overrides``: ``key.path=value``
+    assignments (``--set``); ``on_start`` is called with ``{spacecraft: pid}`` once the
+    processes are started, ``progress`` with the records done.
+
+    Raises
+    ------
+    SILError, ScenarioError
+    """
+    from coopsat.scenarios.document import with_overrides
+    from coopsat.sim.engine import with_native_decided
+    from coopsat.workflows.pipeline import Result, analyse, prepare, record_dataset
+    from coopsat.workflows.sil.processes import Fleet
+
+    doc = with_overrides(scenario, overrides)
+    if seed is not None:
+        doc = doc.with_seed(seed)
+    built = prepare(doc.model)
+    names = list(built.names)
+    controller = per_spacecraft_form(built.system.controller, built.scenario.controller.kind)
+    t_final_s = built.scenario.sim.t_final_s
+    faults = [parse_fault(f, "kill", names, t_final_s) for f in kill] + [parse_fault(f, "pause", names, t_final_s)
+                                                                           for f in pause]
+    if fault_command not in ("hold", "zero"):
+        raise SILError(f"fault command '{fault_command}': give hold or zero")
+    if realtime is not None and not realtime > 0:
+        raise SILError(f"--realtime {realtime:g}: give a factor above 0")
+    commands = _commands(names, dict(externals or {}))
+    for note in built.warnings:
+        if on_warning is not None:
+            on_warning(note)
+    interrupt.check()
+    system = with_native_decided(built.system, built.n_records)
+    from coopsat.workflows.sil.loop import run_loop
+
+    fleet = Fleet(commands, answer_s)
+    try:
+        fleet.start()
+        if on_start is not None:
+            on_start(fleet.pids())
+        out, events = run_loop(built, system, fleet, controller, built.n_records, handshake_s=handshake_s,
+                               faults=faults, hold_commands=fault_command == "hold", realtime=realtime,
+                               progress=progress)
+    except FileNotFoundError as err:
+        raise SILError(f"a flight-software process cannot start: {err}") from None
+    finally:
+        fleet.close()
+    from coopsat.workflows.sil import protocol
+
+    ds = record_dataset(built, out, sil_protocol_version=protocol.VERSION, sil_transport=fleet.endpoint.split(":")[0],
+                        sil_external=json.dumps({n: externals[n] for n in externals or {}}),
+                        sil_fault_command=fault_command, sil_events=json.dumps(events.rows))
+    metrics, rows = analyse(built, ds)
+    checks = {c.name: c for c in built.checks.values()}
+    return Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built)

@@ -1,0 +1,158 @@
+"""Software in the loop: the same result as the compiled loop, faults, the external law,
+clean shutdown and bad input (docs/sil.md). Each run starts one process per spacecraft."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import coopsat
+from coopsat.workflows.sil.processes import SILError
+from coopsat.workflows.sil.run import sil
+
+ROOT = Path(__file__).resolve().parents[2]
+LAW3 = ROOT / "examples" / "sil-external" / "law3.py"
+RING = [["sat1", "sat2", 1.0], ["sat2", "sat3", 0.5], ["sat3", "sat4", 0.5], ["sat4", "sat5", 0.5], ["sat5", "sat1", 0.5]]
+
+
+def _short(name="consensus-sync-a-stable", t_final_s=2.0):
+    return coopsat.Scenario.load(name).set("sim.t_final_s", t_final_s)
+
+
+def _without(name):
+    """Ring (a) without the edges of one spacecraft: what its neighbours hear once it is silent."""
+    return {"kind": "edges", "edges": [e for e in RING if name not in e[:2]]}
+
+
+def _cmdline(pid):
+    return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+
+
+def test_sil_equals_the_compiled_loop_with_one_process_per_spacecraft():
+    """Every recorded variable equals coopsat run's (q and omega to 1e-12 is the promise; the
+    same functions on the same numbers give the same bits)."""
+    s = _short()
+    seen = {}
+
+    def on_start(pids):
+        seen.update({n: _cmdline(p) for n, p in pids.items()})
+
+    ours = sil(s, on_start=on_start)
+    ref = coopsat.run(s)
+    assert sorted(seen) == ["sat1", "sat2", "sat3", "sat4", "sat5"]
+    assert all("coopsat.workflows.sil.fsw" in c for c in seen.values())
+    assert set(ours.dataset.data_vars) == set(ref.dataset.data_vars)
+    for v in ref.dataset.data_vars:
+        np.testing.assert_allclose(ours.dataset[v].values, ref.dataset[v].values, rtol=0, atol=1e-12, err_msg=v)
+    assert ours.metrics == ref.metrics
+    assert ours.dataset.attrs["sil_protocol_version"] == 1
+
+
+def test_killed_and_paused_flight_software_go_silent_as_lost_links():
+    """sat1 paused from 0.3 s for 0.4 s and sat3 killed at 1.5 s, their actuators at zero: the
+    formation flies exactly as the compiled loop with those spacecraft's links removed while
+    they are silent (their own law then hears nobody: zero torque)."""
+    s = _short()
+    ours = sil(s, kill=["sat3@1.5"], pause=["sat1@0.3:0.4"], fault_command="zero")
+    ref = coopsat.run(s.set("network.require_spanning_tree", False).set("network.switches", [{"t_s": 0.3, **_without("sat1")}, {"t_s": 0.7, "kind": "edges", "edges": RING},
+                                                  {"t_s": 1.5, **_without("sat3")}]))
+    for v in ("q", "omega", "torque"):
+        np.testing.assert_allclose(ours.dataset[v].values, ref.dataset[v].values, rtol=0, atol=1e-12, err_msg=v)
+    events = [(e["spacecraft"], e["event"], round(e["t_s"], 9)) for e in json.loads(ours.dataset.attrs["sil_events"])]
+    assert events == [("sat1", "paused", 0.3), ("sat1", "resumed", 0.7), ("sat3", "killed", 1.5)]
+
+
+def test_the_external_plain_python_law_takes_a_spacecraft_s_place():
+    """examples/sil-external/law3.py (numpy, no coopsat) flies sat2. Its torque differs from the
+    jitted law's at rounding (1e-16 N·m: another order of the same operations); over 200
+    periods of this contracting loop that moves the states by far less than 1e-10, and no PWM
+    pulse crosses its threshold on a rounding difference (else the difference would be 1e-3)."""
+    s = _short()
+    ours = sil(s, externals={"sat2": f"{sys.executable} {LAW3}"})
+    ref = coopsat.run(s)
+    for v in ("q", "omega", "torque_command"):
+        np.testing.assert_allclose(ours.dataset[v].values, ref.dataset[v].values, rtol=0, atol=1e-10, err_msg=v)
+    assert json.loads(ours.dataset.attrs["sil_external"]) == {"sat2": f"{sys.executable} {LAW3}"}
+
+
+def _group_members(pgid):
+    """Process ids whose process group is ``pgid`` (from /proc)."""
+    members = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pgid and fields[0] != "Z":
+            members.append(int(stat.parent.name))
+    return members
+
+
+@pytest.mark.parametrize("how", ["sigint-group", "sigkill-simulator"])
+def test_no_process_remains_after_a_stop(tmp_path, how):
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) and a simulator
+    killed outright: no process of the group remains."""
+    cmd = [sys.executable, "-m", "coopsat.cli", "sil", "consensus-sync-a-stable", "--set", "sim.t_final_s=100",
+           "--realtime", "5", "--out", str(tmp_path / "D"), "-q"]
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        line = ""
+        while "sil: flight software" not in line:
+            line = proc.stderr.readline()
+            assert line, "the simulator ended before starting its processes"
+        pids = [int(p) for p in line.split(" pid ")[1:] for p in [p.split(",")[0]]]
+        assert len(pids) == 5 and all(pid in _group_members(proc.pid) for pid in pids)
+        time.sleep(4.0)  # into the run (or still starting, on a busy machine: a stop then too)
+        if how == "sigint-group":
+            os.killpg(proc.pid, signal.SIGINT)
+            assert proc.wait(60) == 130
+        else:
+            proc.kill()
+            proc.wait(60)
+        deadline = time.monotonic() + 10
+        while _group_members(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert _group_members(proc.pid) == []
+        assert not (tmp_path / "D").exists()
+    finally:
+        if _group_members(proc.pid):
+            os.killpg(proc.pid, signal.SIGKILL)
+
+
+@pytest.mark.parametrize("kwargs, says", [
+    ({"kill": ["sat9@1"]}, "--kill sat9@1: no spacecraft 'sat9'"),
+    ({"kill": ["sat3@5"]}, "--kill sat3@5: t = 5 s is outside the run (0 to 2 s)"),
+    ({"pause": ["sat3@1"]}, "--pause sat3@1: give NAME@T_S:DURATION_S"),
+    ({"externals": {"sat2": "no-such-program-xyz"}}, "--external sat2: cannot start 'no-such-program-xyz'"),
+])
+def test_bad_input_is_one_line_before_anything_starts(kwargs, says):
+    with pytest.raises(SILError, match="^" + says.replace("(", r"\(").replace(")", r"\)")):
+        sil(_short(), **kwargs)
+
+
+def test_a_controller_that_cannot_be_split_is_refused_saying_why():
+    with pytest.raises(SILError, match="controller kind 'leader-follower' cannot be split per spacecraft: its step"):
+        sil(_short("delay-designed"))
+
+
+def test_an_external_that_does_not_answer_the_handshake_is_refused():
+    silent = f'{sys.executable} -c "import time; time.sleep(60)"'
+    t0 = time.monotonic()
+    with pytest.raises(SILError, match=r"^sat2: flight software did not say hello \(did it start"):
+        sil(_short(), externals={"sat2": silent}, handshake_s=5.0)
+    assert time.monotonic() - t0 < 30
+
+
+def test_the_command_line_says_bad_input_in_one_line(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "coopsat.cli", "sil", "consensus-sync-a-stable", "--set",
+                          "sim.t_final_s=2", "--kill", "sat7@1", "--out", str(tmp_path / "D")],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines() == ["coopsat: error: --kill sat7@1: no spacecraft 'sat7' (spacecraft: sat1, sat2, "
+                                               "sat3, sat4, sat5)"]

@@ -206,8 +206,8 @@ class _Links:
     def silence(self, msg, weight, live):
         """The delivered ``msg`` ``{name: (k, E)}`` and ``weight`` (E,) with the links of the
         spacecraft not in ``live`` (indices) lost."""
-        silent = ~np.isin(self.src, live)
-        if silent.any():
+        silent = ~np.isin(self.src, live) if len(live) < len(self.mine) else None
+        if silent is not None and silent.any():
             if self.hold and self.held is not None:
                 msg = {k: np.where(silent, self.held[k], m) for k, m in msg.items()}
             else:

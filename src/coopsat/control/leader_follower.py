@@ -62,5 +62,35 @@ class LeaderFollower:
         u = self.follower * per_receiver_sum(per_link, inbox.dst, y["omega"].shape[-1], 0)
         return {"torque_b": u}, state, {"torque_command": u}
 
+    # The per-spacecraft form (the protocol of a LocalController, without ``local``: the
+    # compiled loop keeps the formation-wide step above; software in the loop runs one
+    # spacecraft per process, docs/sil.md).
+    reads = ("angle", "omega")
+
+    @property
+    def reads_own(self):
+        """``step_one`` reads ``inbox_i.own`` (the classical protocol: its own state of the
+        instant each message was sent, which the network delivers with the message)."""
+        return self.protocol == "classical"
+
+    def outbox_one(self, i, y_i, state_i):
+        """Spacecraft i's broadcast: its measured angles (3,) and rates (3,)."""
+        return {"angle": y_i["angle"], "omega": y_i["omega"]}
+
+    def step_one(self, i, t, y_i, inbox_i, state_i, key_i):
+        """Spacecraft i's torque command (3,) N·m from its readings and the links addressed to
+        it (``inbox_i``: one flat link axis (E,), the others zeroed; with the classical protocol
+        ``own`` too); records as :meth:`step`. The same arithmetic as :meth:`step`'s column i:
+        equal bit for bit with at most two links of nonzero weight into i, else to rounding."""
+        if self.protocol == "classical":
+            mine_angle, mine_rate = inbox_i.own["angle"], inbox_i.own["omega"]
+        else:
+            mine_angle, mine_rate = y_i["angle"][:, None], y_i["omega"][:, None]
+        per_link = inbox_i.weight * (
+            self.gain[0] * (inbox_i.msg["angle"] - mine_angle) + self.gain[1] * (inbox_i.msg["omega"] - mine_rate)
+        )
+        u = self.follower[i] * per_link.sum(axis=-1)
+        return {"torque_b": u}, state_i, {"torque_command": u}
+
     def output_specs(self):
         return {"torque_command": OutputSpec(("component",), "N m", "body", "torque commanded by the law at the sample")}

@@ -235,8 +235,9 @@ class LocalController(Protocol):
     ) -> tuple[dict[str, Array], State, dict[str, Array]]:
         """Spacecraft ``i``'s commands ``{name: (3,)}``, new state and record ``{name: (k,)}``.
         ``inbox_i`` has one flat link axis ``(E,)`` whatever the network's layout, every link
-        not addressed to ``i`` zeroed (message and weight), and no ``own``; ``key_i`` is
-        ``fold_in(key, i)``."""
+        not addressed to ``i`` zeroed (message and weight), and no ``own`` unless the part has
+        ``reads_own = True`` (then per link its own outbox of the instant the link's message
+        was sent, zeroed as ``msg``); ``key_i`` is ``fold_in(key, i)``."""
 
     def output_specs(self) -> dict[str, OutputSpec]:
         """How each name ``step_one`` records appears in the dataset (per spacecraft)."""

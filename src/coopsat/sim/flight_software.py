@@ -9,7 +9,9 @@ so that the engine calls it once per spacecraft (``jax.vmap``) with:
 * ``y_i``: only the quantities the part names in ``reads``, only spacecraft i's reading (its
   own column; a sensor's derived measurement such as the relative positions it sees);
 * ``inbox_i``: only the links addressed to spacecraft i (every other link's message and weight
-  zeroed), as one flat link axis (last) whatever the network's layout, and no ``own`` history;
+  zeroed), as one flat link axis (last) whatever the network's layout, and no ``own`` history
+  unless the part says ``reads_own = True`` (then, per link addressed to i, its own outbox of
+  the instant that link's message was sent, as the network delivers it; zeroed elsewhere);
 * ``state_i``: its own slice of the controller state (the spacecraft axis is last);
 * ``key_i``: ``fold_in(key, i)``.
 
@@ -52,16 +54,19 @@ class _PerSpacecraft:
         # in-neighbour table (d, n)).
         links = inbox.weight.ndim
         dst = inbox.dst.reshape(-1)
-        msg = jax.tree_util.tree_map(lambda m: m.reshape(m.shape[: m.ndim - links] + (-1,)), inbox.msg)
+        flat = lambda m: m.reshape(m.shape[: m.ndim - links] + (-1,))  # noqa: E731
+        msg = jax.tree_util.tree_map(flat, inbox.msg)
+        own = jax.tree_util.tree_map(flat, inbox.own) if getattr(self.software, "reads_own", False) else {}
         weight = inbox.weight.reshape(-1)
 
         def one(i, y_i, state_i):
             addressed = dst == i
+            mine = lambda m: jnp.where(addressed, m, jnp.zeros_like(m))  # noqa: E731
             inbox_i = Inbox(
-                msg=jax.tree_util.tree_map(lambda m: jnp.where(addressed, m, jnp.zeros_like(m)), msg),
+                msg=jax.tree_util.tree_map(mine, msg),
                 weight=jnp.where(addressed, weight, 0.0),
                 dst=dst,
-                own={},
+                own=jax.tree_util.tree_map(mine, own),
             )
             return self.software.step_one(i, t, y_i, inbox_i, state_i, jax.random.fold_in(key, i))
 

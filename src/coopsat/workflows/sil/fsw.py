@@ -61,15 +61,18 @@ class OneSpacecraft:
         self.y = {q: np.asarray(v, np.float64) for q, v in y.items()}
         return {k: np.asarray(v) for k, v in self._outbox(self.part, self.i, self.y, self.state).items()}
 
-    def step(self, t, msg, weight, key):
+    def step(self, t, msg, weight, key, own=None):
         """This period's commands and record from the messages on the links addressed to it
-        (``msg``: ``{name: (k, m)}``, ``weight``: (m,)) and its key (uint32 (2,))."""
+        (``msg``: ``{name: (k, m)}``, ``weight``: (m,)), its key (uint32 (2,)) and, for a part
+        that ``reads_own``, its own outbox of the instant each message was sent (``own``, as
+        ``msg``)."""
         import numpy as np
 
         msg = {k: np.asarray(v, np.float64) for k, v in msg.items()}
+        own = {k: np.asarray(v, np.float64) for k, v in (own or {}).items()}
         commands, self.state, record = self._step(self.part, self.i, np.float64(t), self.y, msg,
                                                   np.asarray(weight, np.float64), self.state,
-                                                  np.asarray(key, np.uint32), self.dst, self.mine)
+                                                  np.asarray(key, np.uint32), self.dst, self.mine, own)
         return {k: np.asarray(v) for k, v in commands.items()}, {k: np.asarray(v) for k, v in record.items()}
 
     def warm_up(self, reads):
@@ -80,24 +83,28 @@ class OneSpacecraft:
         y = {q: np.zeros(shape) for q, shape in reads.items()}
         msg = self._outbox(self.part, self.i, y, self.state)
         zeros = {k: np.zeros((*np.shape(v), len(self.mine))) for k, v in msg.items()}
+        own = zeros if getattr(self.part, "reads_own", False) else {}
         self._step(self.part, self.i, np.float64(0.0), y, zeros, np.zeros(len(self.mine)), self.state,
-                   np.zeros(2, np.uint32), self.dst, self.mine)
+                   np.zeros(2, np.uint32), self.dst, self.mine, own)
 
 
 def _outbox(part, i, y_i, state_i):
     return part.outbox_one(i, y_i, state_i)
 
 
-def _step(part, i, t, y_i, msg_mine, weight_mine, state_i, key_i, dst, mine):
-    """``step_one`` on the inbox the compiled loop gives spacecraft i: one flat link axis, the
-    links not addressed to i zeroed (message and weight), no ``own``."""
+def _step(part, i, t, y_i, msg_mine, weight_mine, state_i, key_i, dst, mine, own_mine):
+    """``step_one`` on the inbox the compiled loop gives spacecraft i
+    (:mod:`coopsat.sim.flight_software`): one flat link axis, the links not addressed to i
+    zeroed (message, weight and ``own``), ``own`` empty unless the part ``reads_own``."""
     import jax.numpy as jnp
 
     from coopsat.network.delivery import Inbox
 
     e = dst.shape[0]
-    msg = {k: jnp.zeros((*m.shape[:-1], e), m.dtype).at[..., mine].set(m) for k, m in msg_mine.items()}
-    inbox = Inbox(msg=msg, weight=jnp.zeros(e).at[mine].set(weight_mine), dst=dst, own={})
+    spread = lambda m: jnp.zeros((*m.shape[:-1], e), m.dtype).at[..., mine].set(m)  # noqa: E731
+    msg = {k: spread(m) for k, m in msg_mine.items()}
+    own = {k: spread(m) for k, m in own_mine.items()}
+    inbox = Inbox(msg=msg, weight=jnp.zeros(e).at[mine].set(weight_mine), dst=dst, own=own)
     return part.step_one(i, t, y_i, inbox, state_i, key_i)
 
 
@@ -132,7 +139,8 @@ def _serve(sock, parent):
         if kind == protocol.SENSE:
             reply = {"type": protocol.OUTBOX, "k": k, "msg": protocol.lists(host.outbox(message["y"]))}
         elif kind == protocol.INBOX:
-            commands, record = host.step(message["t"], message["msg"], message["weight"], message["key"])
+            commands, record = host.step(message["t"], message["msg"], message["weight"], message["key"],
+                                         message.get("own"))
             reply = {"type": protocol.COMMAND, "k": k, "commands": protocol.lists(commands),
                      "record": protocol.lists(record)}
         elif kind == protocol.STOP:

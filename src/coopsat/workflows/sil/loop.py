@@ -84,14 +84,17 @@ def _network_init(system, outbox):
     return system.network.init(outbox)
 
 
-@jax.jit
-def _deliver(system, tick, outbox, net_state, key):
+@partial(jax.jit, static_argnames=("own",))
+def _deliver(system, tick, outbox, net_state, key, own=False):
     """The network part's ``deliver``, its links flat (as the compiled loop flattens them for
-    per-spacecraft flight software): messages ``{name: (k, E)}``, weights (E,)."""
+    per-spacecraft flight software, :mod:`coopsat.sim.flight_software`): messages
+    ``{name: (k, E)}``, weights (E,), and with ``own`` each link's receiver's own outbox of the
+    instant its message was sent (``{name: (k, E)}``; else ``{}``)."""
     inbox, net_state, record = system.network.deliver(tick, outbox, net_state, key)
     links = inbox.weight.ndim
-    msg = jax.tree_util.tree_map(lambda m: m.reshape(m.shape[: m.ndim - links] + (-1,)), inbox.msg)
-    return msg, inbox.weight.reshape(-1), net_state, record
+    flat = lambda m: m.reshape(m.shape[: m.ndim - links] + (-1,))  # noqa: E731
+    mine = jax.tree_util.tree_map(flat, inbox.own) if own else {}
+    return jax.tree_util.tree_map(flat, inbox.msg), inbox.weight.reshape(-1), mine, net_state, record
 
 
 @partial(jax.jit, static_argnames=("reads",))
@@ -203,17 +206,20 @@ class _Links:
         self.hold = bool(getattr(network, "lossy", False) and getattr(network, "hold", False))
         self.held = None
 
-    def silence(self, msg, weight, live):
-        """The delivered ``msg`` ``{name: (k, E)}`` and ``weight`` (E,) with the links of the
-        spacecraft not in ``live`` (indices) lost."""
+    def silence(self, msg, weight, own, live):
+        """The delivered ``msg`` ``{name: (k, E)}``, ``weight`` (E,) and ``own`` (as ``msg``, or
+        empty) with the links of the spacecraft not in ``live`` (indices) lost (a held message
+        keeps the ``own`` it came with, as the network holds both)."""
         silent = ~np.isin(self.src, live) if len(live) < len(self.mine) else None
         if silent is not None and silent.any():
             if self.hold and self.held is not None:
-                msg = {k: np.where(silent, self.held[k], m) for k, m in msg.items()}
+                held_msg, held_own = self.held
+                msg = {k: np.where(silent, held_msg[k], m) for k, m in msg.items()}
+                own = {k: np.where(silent, held_own[k], m) for k, m in own.items()}
             else:
                 weight = np.where(silent, 0.0, weight)
-        self.held = msg
-        return msg, weight
+        self.held = msg, own
+        return msg, weight, own
 
 
 class _Loop:
@@ -224,6 +230,7 @@ class _Loop:
         self.view = _engine_view(system)
         self.fleet = fleet
         self.reads = tuple(controller.reads)
+        self.reads_own = bool(getattr(controller, "reads_own", False))
         self.links = _Links(system.network, len(self.names))
         recorded = output_shapes(system)  # interface layout: (n, k…) per spacecraft
         self.record_specs = {k: (recorded[k][1:] if spec.per_spacecraft else recorded[k], spec.per_spacecraft)
@@ -249,13 +256,19 @@ class _Loop:
         outbox = self.silence.outbox(replies)
         if self.net_state is None:  # the history before t = 0 is the first outbox
             self.net_state = _network_init(self.view, outbox)
-        msg, weight, self.net_state, net_record = _deliver(self.view, tick, outbox, self.net_state, net_key)
-        msg, weight = self.links.silence(*_host((msg, weight)), live)
+        msg, weight, own, self.net_state, net_record = _deliver(self.view, tick, outbox, self.net_state, net_key,
+                                                                own=self.reads_own)
+        msg, weight, own = self.links.silence(*_host((msg, weight, own)), live)
         mine = self.links.mine
-        replies = self.fleet.exchange({self.names[i]: {"type": protocol.INBOX, "k": p, "t": t_s,
-                                                       "msg": {k: m[..., mine[i]].tolist() for k, m in msg.items()},
-                                                       "weight": weight[mine[i]].tolist(), "key": keys[i].tolist()}
-                                       for i in live}, protocol.COMMAND, p)
+
+        def inbox(i):
+            message = {"type": protocol.INBOX, "k": p, "t": t_s, "msg": {k: m[..., mine[i]].tolist() for k, m in msg.items()},
+                       "weight": weight[mine[i]].tolist(), "key": keys[i].tolist()}
+            if self.reads_own:
+                message["own"] = {k: m[..., mine[i]].tolist() for k, m in own.items()}
+            return message
+
+        replies = self.fleet.exchange({self.names[i]: inbox(i) for i in live}, protocol.COMMAND, p)
         cmd, ctrl_record = self.silence.commands(replies, self.command_shapes, self.record_specs)
         return cmd, {**measured, **net_record, **ctrl_record}
 

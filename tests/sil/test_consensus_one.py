@@ -11,6 +11,7 @@ from coopsat.network import topology
 from coopsat.network.delivery import IdealNetwork
 from coopsat.sim.flight_software import as_flight_software
 from coopsat.sim.system import as_arrays
+from per_spacecraft import OneByOne
 
 
 def _law(track, short_way):
@@ -21,25 +22,6 @@ def _measurements(n, seed):
     rng = np.random.default_rng(seed)
     q = rng.normal(size=(4, n))
     return {"q": jnp.asarray(q / np.linalg.norm(q, axis=0)), "omega": jnp.asarray(rng.normal(size=(3, n)))}
-
-
-class _OneByOne:
-    """The per-spacecraft form as a LocalController, so that the engine's own wrapper
-    (flight_software._PerSpacecraft) runs it once per spacecraft."""
-
-    local = True
-
-    def __init__(self, law):
-        self.law, self.reads, self.commands = law, law.reads, law.commands
-
-    def init(self, n):
-        return self.law.init(n)
-
-    def outbox_one(self, *args):
-        return self.law.outbox_one(*args)
-
-    def step_one(self, *args):
-        return self.law.step_one(*args)
 
 
 @pytest.mark.parametrize("track", [False, True])
@@ -53,7 +35,7 @@ def test_per_spacecraft_form_equals_the_formation_step(track, graph, exact):
     y = _measurements(n, seed=3)
     key = jax.random.PRNGKey(0)
     whole = law.step(0.7, y, network.deliver(0, law.outbox(y, ()), (), key)[0], (), key)
-    one = as_flight_software(_OneByOne(law), n)
+    one = as_flight_software(OneByOne(law), n)
     split = one.step(0.7, y, network.deliver(0, one.outbox(y, ()), (), key)[0], (), key)
     u_whole, u_split = np.asarray(whole[0]["torque_b"]), np.asarray(split[0]["torque_b"])
     if exact:  # two links per receiver: the same sum whatever its order

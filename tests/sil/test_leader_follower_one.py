@@ -11,25 +11,7 @@ from coopsat.control.leader_follower import LeaderFollower
 from coopsat.network.delivery import Inbox
 from coopsat.sim.flight_software import as_flight_software
 from coopsat.sim.system import as_arrays
-
-
-class _OneByOne:
-    """The per-spacecraft form as a LocalController, so that the engine's own wrapper
-    (flight_software._PerSpacecraft) runs it once per spacecraft."""
-
-    local = True
-
-    def __init__(self, law):
-        self.law, self.reads, self.commands, self.reads_own = law, law.reads, law.commands, law.reads_own
-
-    def init(self, n):
-        return self.law.init(n)
-
-    def outbox_one(self, *args):
-        return self.law.outbox_one(*args)
-
-    def step_one(self, *args):
-        return self.law.step_one(*args)
+from per_spacecraft import OneByOne
 
 
 def _inbox(rng, dst, n):
@@ -61,7 +43,7 @@ def test_per_spacecraft_form_equals_the_formation_step(protocol, layout):
         y = {k: jnp.asarray(rng.normal(size=(3, n))) for k in ("angle", "omega")}
         inbox = _inbox(rng, _links(layout, n, rng), n)
         whole = law.step(0.7, y, inbox, (), key)
-        one = as_flight_software(_OneByOne(law), n)
+        one = as_flight_software(OneByOne(law), n)
         split = one.step(0.7, y, inbox, (), key)
         u_whole, u_split = np.asarray(whole[0]["torque_b"]), np.asarray(split[0]["torque_b"])
         assert u_split.shape == (3, n)
@@ -84,5 +66,5 @@ def test_two_links_are_bit_for_bit():
     inbox = _inbox(rng, dst, n)._replace(weight=jnp.asarray(rng.uniform(0.5, 1.0, 4)))
     key = jax.random.PRNGKey(0)
     whole = law.step(0.0, y, inbox, (), key)[0]["torque_b"]
-    split = as_flight_software(_OneByOne(law), n).step(0.0, y, inbox, (), key)[0]["torque_b"]
+    split = as_flight_software(OneByOne(law), n).step(0.0, y, inbox, (), key)[0]["torque_b"]
     np.testing.assert_array_equal(np.asarray(split), np.asarray(whole))

@@ -72,6 +72,19 @@ def _release_compiled_programs():
     large one is 100–300 MB of generated code) and glibc keeps what was freed. The next module
     traces its own structures again and loads them from the persistent compilation cache."""
     yield
+    release_compiled_programs()
+
+
+@pytest.fixture
+def release_after():
+    """The same release after one test: for a test parametrized over many structures (every
+    bundled scenario), which would otherwise hold them all until its module ends."""
+    yield
+    release_compiled_programs()
+
+
+def release_compiled_programs():
+    """Drop the engine's compiled programs and JAX's caches; trim the C heap."""
     import ctypes
     import gc
 

@@ -208,7 +208,7 @@ def _bundled():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _bundled())
-def test_every_bundled_scenarios_figures_show_only_what_it_has(name):
+def test_every_bundled_scenarios_figures_show_only_what_it_has(name, release_after):
     import coopsat
     from coopsat.analysis.metrics import attitude_moves
 

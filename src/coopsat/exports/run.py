@@ -17,20 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.astro.constants import MU_EARTH_M3_S2, MU_SUN_M3_S2
+from coopsat.astro.constants import central_body_name
 
 
 class ExportError(ValueError):
     """A run that cannot be exported in the format asked, or an output that cannot be written:
     one line naming the cause."""
-
-
-CENTRAL_BODIES = {"EARTH": MU_EARTH_M3_S2, "SUN": MU_SUN_M3_S2}
-"""CCSDS ``CENTER_NAME`` of each central body a run may orbit, by its gravitational parameter, m³/s²."""
-
-MU_MATCH_RTOL = 0.01
-"""A run's ``[orbit] mu_m3_s2`` names a body when within this fraction of the body's μ (the
-Earth-environment models accept the Earth within the same 1 %)."""
 
 
 @dataclass(frozen=True)
@@ -113,14 +105,6 @@ def _epoch(orbit):
     return np.datetime64(when.replace(tzinfo=None), "us"), f"{note} {iso} (UTC)"
 
 
-def _center_name(mu_m3_s2):
-    """CCSDS ``CENTER_NAME`` of the body whose μ is ``mu_m3_s2``, m³/s², or None."""
-    for name, mu in CENTRAL_BODIES.items():
-        if abs(mu_m3_s2 / mu - 1.0) <= MU_MATCH_RTOL:
-            return name
-    return None
-
-
 def _values(ds, name):
     return None if name not in ds else np.asarray(ds[name].values, dtype=np.float64)
 
@@ -145,7 +129,7 @@ def read_states(source):
         t_s=np.asarray(ds["time"].values, dtype=np.float64),
         epoch=epoch,
         epoch_note=note,
-        center_name=None if mu is None else _center_name(mu),
+        center_name=None if mu is None else central_body_name(mu),
         mu_m3_s2=mu,
         r_eci_m=_values(ds, "r_eci"),
         v_eci_m_s=_values(ds, "v_eci"),

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from coopsat.astro.constants import central_body_name
 from coopsat.geometry.frames import lvlh_dcm
 from coopsat.geometry.quaternion import quat_from_axis_angle, quat_to_dcm
 
@@ -141,15 +142,11 @@ def _trail_index(n_samples):
 
 
 def _central_body(orbit):
-    from coopsat.astro.constants import MU_EARTH_M3_S2, MU_SUN_M3_S2
-
+    """The drawn name of the ``[orbit]``'s central body (None without one)."""
     if orbit is None:
         return None
-    if np.isclose(orbit.mu_m3_s2, MU_EARTH_M3_S2, rtol=1e-6):
-        return "Earth"
-    if np.isclose(orbit.mu_m3_s2, MU_SUN_M3_S2, rtol=1e-6):
-        return "Sun"
-    return "central body"
+    name = central_body_name(orbit.mu_m3_s2)
+    return "central body" if name is None else name.title()
 
 
 def _lvlh_scene(ds, r, axes_i, frames, names, body):

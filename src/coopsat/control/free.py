@@ -18,5 +18,15 @@ class NoControl:
     def step(self, t, y, inbox, state, key):
         return {}, state, {}
 
+    # The per-spacecraft form (software in the loop runs one spacecraft per process,
+    # docs/sil.md): each spacecraft reads nothing, broadcasts nothing, commands nothing.
+    reads = ()
+
+    def outbox_one(self, i, y_i, state_i):
+        return {}
+
+    def step_one(self, i, t, y_i, inbox_i, state_i, key_i):
+        return {}, state_i, {}
+
     def output_specs(self):
         return {}

@@ -119,6 +119,24 @@ class AttitudePid:
         new_state = integrate_error(state, e, self.period_s, self.integral_max)
         return {"torque_b": u}, new_state, {"torque_command": u, "attitude_error_integral": state}
 
+    # The per-spacecraft form (the protocol of a LocalController, without ``local``: the
+    # compiled loop keeps the formation-wide step above; software in the loop runs one
+    # spacecraft per process, docs/sil.md). The law reads only its own spacecraft's column.
+    reads = ("q", "omega")
+
+    def outbox_one(self, i, y_i, state_i):
+        """Spacecraft i broadcasts nothing."""
+        return {}
+
+    def step_one(self, i, t, y_i, inbox_i, state_i, key_i):
+        """Spacecraft i's body torque ``torque_b`` (3,) N·m from its attitude (4,) and rate (3,)
+        and its integral ``state_i`` (3,) s; records as :meth:`step`. The same elementwise
+        arithmetic as :meth:`step`'s column i: equal bit for bit."""
+        e = attitude_error_vector(y_i["q"], self.q_target)
+        u = pid_torque(e, y_i["omega"], state_i, self.k_p, self.k_d, self.k_i)
+        new_state = integrate_error(state_i, e, self.period_s, self.integral_max)
+        return {"torque_b": u}, new_state, {"torque_command": u, "attitude_error_integral": state_i}
+
     def output_specs(self):
         return {
             "torque_command": OutputSpec(("component",), "N m", "body", "torque commanded by the control law at the sample"),
@@ -154,6 +172,11 @@ class LvlhPd:
     rho_target_lvlh: jnp.ndarray
 
     commands = ("force_lvlh",)
+    # No per-spacecraft form: software in the loop says why in its refusal.
+    per_spacecraft_refusal = (
+        "each deputy's law reads the chief's measured orbit directly, not through the network, so one spacecraft's "
+        "flight software cannot compute it alone"
+    )
 
     def init(self, n):
         return ()

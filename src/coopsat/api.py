@@ -136,7 +136,7 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
 
 def sil(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path | None = None, figures: bool = False,
         report: bool = True, kill: Sequence[str] = (), pause: Sequence[str] = (), externals: Mapping[str, str] | None = None,
-        fault_command: str = "hold", realtime: float | None = None, answer_s: float = 10.0,
+        fault_command: str | None = None, realtime: float | None = None, answer_s: float = 10.0,
         handshake_s: float = 120.0) -> Result:
     """Run one scenario as software in the loop (``coopsat sil``, docs/sil.md): one flight-software
     process per spacecraft, the simulator here; the same :class:`Result` as :func:`run`, equal to
@@ -153,10 +153,13 @@ def sil(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
     externals : mapping of str to str, optional
         ``{"sat2": "python law3.py"}``: that spacecraft's flight software is this command (it
         speaks the protocol of docs/sil.md) instead of coopsat's own.
-    fault_command : {"hold", "zero"}
-        What a silent spacecraft's actuators execute: its last command, or zero.
+    fault_command : {"hold", "zero"}, optional
+        What a silent spacecraft's actuators execute: its last command, or zero (default: the
+        scenario's ``[sil] fault_command``, hold).
     realtime : float, optional
-        Simulated seconds per wall second (default: as fast as the processes answer).
+        Simulated seconds per wall second, each period's answers due within its slot of wall
+        time; misses are counted and recorded (``sil_deadline_misses``) and a late command is
+        held (default: lockstep, as fast as the processes answer).
     answer_s, handshake_s : float
         Longest wait for a process's answer in a period, and for every process to start, s.
 

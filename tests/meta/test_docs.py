@@ -22,6 +22,7 @@ CORE_MODELS = [
     schema.Graph,
     schema.GraphSwitch,
     schema.Network,
+    schema.Sil,
     schema.Analysis,
     schema.Published,
     schema.Scenario,

@@ -61,11 +61,13 @@ def test_sil_equals_the_compiled_loop_with_one_process_per_spacecraft():
 
 
 def test_killed_and_paused_flight_software_go_silent_as_lost_links():
-    """sat1 paused from 0.3 s for 0.4 s and sat3 killed at 1.5 s, their actuators at zero: the
-    formation flies exactly as the compiled loop with those spacecraft's links removed while
-    they are silent (their own law then hears nobody: zero torque)."""
+    """sat1 paused from 0.3 s for 0.4 s and sat3 killed at 1.5 s, their actuators at zero (the
+    scenario's ``[sil] fault_command``): the formation flies exactly as the compiled loop with
+    those spacecraft's links removed while they are silent (their own law then hears nobody:
+    zero torque)."""
     s = _short()
-    ours = sil(s, kill=["sat3@1.5"], pause=["sat1@0.3:0.4"], fault_command="zero")
+    ours = sil(s.set("sil.fault_command", "zero"), kill=["sat3@1.5"], pause=["sat1@0.3:0.4"])
+    assert ours.dataset.attrs["sil_fault_command"] == "zero"
     ref = coopsat.run(s.set("network.require_spanning_tree", False).set("network.switches", [{"t_s": 0.3, **_without("sat1")}, {"t_s": 0.7, "kind": "edges", "edges": RING},
                                                   {"t_s": 1.5, **_without("sat3")}]))
     for v in ("q", "omega", "torque"):
@@ -102,6 +104,32 @@ def test_other_families_equal_the_compiled_loop(name, t_final_s):
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * max(1.0, np.abs(b).max()), err_msg=v)
 
 
+def test_a_kill_on_the_delayed_network_drops_its_links_and_messages_in_flight():
+    """delay-designed without relaying, lost messages dropped (``on_loss = "drop"``), v2 killed
+    at 3 s with its actuators at zero: the leader and v1 fly exactly as the compiled loop with
+    v2's transmitting links removed at 3 s (the messages it sent in the 0.37–0.43 s before,
+    still in flight, are lost with it: τ(t) is redrawn within the run), and v2 as before until
+    the kill, then with zero torque."""
+    edges = [["v0", "v1", 1.0], ["v0", "v2", 1.0], ["v1", "v2", 1.0], ["v2", "v1", 1.0]]
+    s = (coopsat.Scenario.load("delay-designed").set("sim.t_final_s", 6.0).set("network.edges", edges)
+         .set("network.delivery.relay", False).set("network.delivery.on_loss", "drop")
+         .set("network.require_spanning_tree", False).set("sil.fault_command", "zero"))
+    ours = sil(s, kill=["v2@3"]).dataset
+    ref = coopsat.run(s.set("network.switches", [{"t_s": 3.0, "kind": "edges", "directed": True, "edges": edges[:3]}])).dataset
+    assert len(np.unique(ref["network_tau_periods"].values)) > 1
+    before = ref.time.values < 3.0
+    for v in ("angle", "omega", "torque", "torque_command"):
+        a, b = ours[v], ref[v]
+        for sc in ("v0", "v1"):
+            np.testing.assert_allclose(a.sel(spacecraft=sc).values, b.sel(spacecraft=sc).values, rtol=0, atol=1e-12,
+                                       err_msg=f"{v} {sc}")
+        np.testing.assert_allclose(a.sel(spacecraft="v2").values[before], b.sel(spacecraft="v2").values[before], rtol=0,
+                                   atol=1e-12, err_msg=f"{v} v2 before the kill")
+    after = ours.time.values > 3.0
+    assert not ours["torque"].sel(spacecraft="v2").values[after].any()
+    assert ref["torque"].sel(spacecraft="v2").values[after].any()  # the reference keeps v2 controlled
+
+
 def _group_members(pgid):
     """Process ids whose process group is ``pgid`` (from /proc)."""
     members = []
@@ -118,7 +146,9 @@ def _group_members(pgid):
 @pytest.mark.parametrize("how", ["sigint-group", "sigkill-simulator"])
 def test_no_process_remains_after_a_stop(tmp_path, how):
     """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) and a simulator
-    killed outright: no process of the group remains."""
+    killed outright: no process of the group remains; and once the processes are connected,
+    nothing of the run is left in the file system (the socket's folder is gone, the logs are
+    anonymous files), so a simulator killed outright leaves no file either."""
     cmd = [sys.executable, "-m", "coopsat.cli", "sil", "consensus-sync-a-stable", "--set", "sim.t_final_s=100",
            "--realtime", "5", "--out", str(tmp_path / "D"), "-q"]
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, start_new_session=True)
@@ -130,12 +160,20 @@ def test_no_process_remains_after_a_stop(tmp_path, how):
         pids = [int(p) for p in line.split(" pid ")[1:] for p in [p.split(",")[0]]]
         assert len(pids) == 5 and all(pid in _group_members(proc.pid) for pid in pids)
         time.sleep(4.0)  # into the run (or still starting, on a busy machine: a stop then too)
+        if how == "sigkill-simulator":  # once connected, nothing in the file system
+            endpoint = dict(v.split("=", 1) for v in Path(f"/proc/{pids[0]}/environ").read_text().split("\0") if "=" in v)
+            folder = Path(endpoint["COOPSAT_SIL_ENDPOINT"].removeprefix("ipc://")).parent
+            deadline = time.monotonic() + 90
+            while folder.exists() and time.monotonic() < deadline:
+                time.sleep(0.1)
+            assert not folder.exists() and proc.poll() is None
         if how == "sigint-group":
             os.killpg(proc.pid, signal.SIGINT)
             assert proc.wait(60) == 130
         else:
             proc.kill()
             proc.wait(60)
+            assert not folder.exists()
         deadline = time.monotonic() + 10
         while _group_members(proc.pid) and time.monotonic() < deadline:
             time.sleep(0.1)
@@ -179,11 +217,26 @@ def test_the_delayed_network_equals_the_compiled_loop(tmp_path, name):
 
 
 def test_a_controller_that_cannot_be_split_is_refused_saying_why():
-    """Attitude PID (its step reads every spacecraft's column at once and it offers no
-    per-spacecraft form)."""
-    s = _short("rigid-body-free").update({"controller": {"kind": "attitude-pid", "period_s": 0.01, "k_p": 1.0, "k_d": 1.0}})
-    with pytest.raises(SILError, match="controller kind 'attitude-pid' cannot be split per spacecraft: its step"):
+    """LVLH station keeping: each deputy's law reads the chief's measurement directly, not
+    through the network (the part says so)."""
+    s = coopsat.Scenario.load("cartwheel-keeping-ground").set("published", []).set("sim.t_final_s", 100.0)
+    s = s.update({"controller": {"kind": "lvlh-pd", "period_s": 1.0, "k_p": 1e-3, "k_d": 0.1,
+                                 "rho_target_lvlh_m": [0.0, 100.0, 0.0]}})
+    with pytest.raises(SILError, match="^controller kind 'lvlh-pd' cannot be split per spacecraft: each deputy's law "
+                                       "reads the chief's measured orbit directly, not through the network"):
         sil(s)
+
+
+def test_a_spacecraft_silent_from_the_start_flies_free():
+    """Killed at t = 0, before its first broadcast: its neighbours hear nothing of it (the
+    law's broadcast in zeros stands in its slot, its links dropped) and it flies uncontrolled,
+    as the compiled loop with its edges removed from the start."""
+    s = _short().set("network.require_spanning_tree", False).set("sil.fault_command", "zero")
+    ours = sil(s, kill=["sat3@0"])
+    ref = coopsat.run(s.set("network", {**_without("sat3"), "require_spanning_tree": False}))
+    for v in ("q", "omega", "torque"):
+        np.testing.assert_allclose(ours.dataset[v].values, ref.dataset[v].values, rtol=0, atol=1e-12, err_msg=v)
+    assert not ours.dataset["torque"].sel(spacecraft="sat3").values.any()
 
 
 def test_an_external_that_does_not_answer_the_handshake_is_refused():

@@ -270,6 +270,14 @@ class Network(Graph):
         return self
 
 
+class Sil(Table):
+    """``[sil]``: how software in the loop (``coopsat sil``, docs/sil.md) treats this scenario's
+    flight software; ``coopsat run`` ignores it."""
+
+    fault_command: Literal["hold", "zero"] = Field(
+        "hold",
+        description="What a killed or paused spacecraft's actuators execute: its last command (hold) or zero.",
+    )
 
 
 class _CoreAnalysis(Table):
@@ -345,6 +353,7 @@ class Scenario(Table):
     )
     sensors: list[Sensor] = Field([], description="[[sensors]]: each replaces one measured quantity by a sensor's reading.")
     disturbances: list[Disturbance] = Field([], description="[[disturbances]]: environment forces and torques.")
+    sil: Sil = Sil()
     analysis: Analysis = Analysis()
     published: list[Published] = []
 

@@ -116,6 +116,15 @@ def _wait(sock, parent):
     return protocol.decode(sock.recv())
 
 
+def _newest(sock, message):
+    """The newest of ``message`` and those already waiting behind it: a host that has fallen
+    behind a realtime schedule answers the latest period, as a flight computer that overran
+    takes the latest reading (the simulator discards answers to periods it has closed)."""
+    while sock.poll(0):
+        message = protocol.decode(sock.recv())
+    return message
+
+
 def _serve(sock, parent):
     """Handshake, then answer every period until ``stop``."""
     setup = _wait(sock, parent)
@@ -134,7 +143,7 @@ def _serve(sock, parent):
     host.warm_up(setup["reads"])
     sock.send(protocol.encode({"type": protocol.READY}))
     while True:
-        message = _wait(sock, parent)
+        message = _newest(sock, _wait(sock, parent))
         kind, k = message["type"], message.get("k")
         if kind == protocol.SENSE:
             reply = {"type": protocol.OUTBOX, "k": k, "msg": protocol.lists(host.outbox(message["y"]))}

@@ -20,6 +20,13 @@ transmits on are lost from that period on, by the network's rule for a lost mess
 (the last message each receiver got on the link) where the network holds lost messages
 (``on_loss = "hold"``), else dropped (weight 0). Its slot in the network's history keeps its last
 broadcast.
+
+With ``realtime`` a period starts every ``period_s / realtime`` seconds of wall time, and every
+flight software must answer both of its rounds within that slot. One that misses is *late* for
+the period: late with its ``outbox``, its broadcast is lost as a silent spacecraft's and it gets
+no ``inbox``; late with its ``command``, its actuators hold its last command (as actuators hold a
+command until the next one comes: zero before its first). Its late answer is discarded when it
+comes. Every miss is counted (:class:`Timing`).
 """
 
 import math
@@ -39,6 +46,7 @@ from coopsat.sim.period import (_KEY_CONTROLLER, _KEY_NETWORK, _account, _actuat
 from coopsat.sim.programs import _initial_parts, _means
 from coopsat.workflows import interrupt
 from coopsat.workflows.sil import protocol
+from coopsat.workflows.sil.processes import SILError
 
 
 @dataclass
@@ -51,6 +59,35 @@ class Fault:
     name: str
     t_s: float
     duration_s: float = 0.0
+
+
+@dataclass
+class Timing:
+    """How a realtime run kept its schedule: the periods each spacecraft missed, and the
+    simulator's own lag.
+
+    Attributes
+    ----------
+    misses : list of (int, int)
+        (period, spacecraft index) of every late answer (one per period at most).
+    overruns : int
+        Periods that started a whole slot or more behind their schedule (the simulator and the
+        processes together did not keep up).
+    max_lag_s : float
+        Largest delay of a period's start behind its schedule, s of wall time.
+    """
+
+    misses: list = field(default_factory=list)
+    overruns: int = 0
+    max_lag_s: float = 0.0
+
+    def counts(self, n_records, periods_per_record, n):
+        """Late periods per record interval and spacecraft, (n_records + 1, n) (the last row:
+        the final sample's period)."""
+        counts = np.zeros((n_records + 1, n), np.int64)
+        for p, i in self.misses:
+            counts[min(p // periods_per_record, n_records), i] += 1
+        return counts
 
 
 @dataclass
@@ -158,40 +195,66 @@ def _schedule(faults, period_s):
     return sorted(plan, key=lambda row: row[0])
 
 
+def _shapes(shapes):
+    return "{" + ", ".join(f"{k}: {list(v)}" for k, v in sorted(shapes.items())) + "}"
+
+
+def blank_outbox(controller, y0, n):
+    """Spacecraft 0's broadcast as the law makes it, in zeros: ``{name: (k,)}`` (its shapes,
+    found without running the law)."""
+    state_0 = jax.tree_util.tree_map(lambda a: a[..., 0], controller.init(n))
+    y_0 = {q: y0[q][..., 0] for q in controller.reads}
+    shapes = jax.eval_shape(lambda y, s: controller.outbox_one(0, y, s), y_0, state_0)
+    return {k: np.zeros(v.shape) for k, v in shapes.items()}
+
+
 class _Silence:
     """What stands in for a silent spacecraft: its last broadcast, and its last command and
     record (or zeros, without ``hold_commands``)."""
 
-    def __init__(self, names, hold_commands):
+    def __init__(self, names, hold_commands, blank):
         self.names = names
         self.hold_commands = hold_commands
+        self.blank = blank  # a broadcast of zeros: a spacecraft silent before its first one
         self.msg, self.cmd, self.record = {}, {}, {}
 
     def outbox(self, replies):
-        """``{name: (k, n)}``: each spacecraft's broadcast, or its last one when silent."""
-        for name, r in replies.items():
-            self.msg[name] = {k: np.asarray(v, np.float64) for k, v in r["msg"].items()}
-        some = next(iter(self.msg.values()))
-        return {k: np.stack([self.msg[n][k] if n in self.msg else np.zeros_like(v) for n in self.names], axis=-1)
-                for k, v in some.items()}
+        """``{name: (k, n)}``: each spacecraft's broadcast, or its last one when silent.
 
-    def commands(self, replies, shapes, record_specs):
-        """The commands ``{name: (3, n)}`` and the controller's record, silent ones standing in."""
+        Raises
+        ------
+        SILError
+            A broadcast whose fields or shapes are not the law's (an external flight software's
+            mistake).
+        """
+        for name, r in replies.items():
+            msg = {k: np.asarray(v, np.float64) for k, v in r["msg"].items()}
+            shapes = {k: v.shape for k, v in msg.items()}
+            if shapes != {k: v.shape for k, v in self.blank.items()}:
+                raise SILError(f"{name}'s flight software broadcast {_shapes(shapes)}; the law broadcasts "
+                               f"{_shapes({k: v.shape for k, v in self.blank.items()})}")
+            self.msg[name] = msg
+        return {k: np.stack([self.msg.get(n, self.blank)[k] for n in self.names], axis=-1) for k in self.blank}
+
+    def commands(self, replies, shapes, record_specs, late=frozenset()):
+        """The commands ``{name: (3, n)}`` and the controller's record, silent ones standing in
+        (``late``: names whose command is held whatever ``hold_commands`` says)."""
         for name, r in replies.items():
             self.cmd[name] = {k: np.asarray(v, np.float64) for k, v in r["commands"].items()}
             self.record[name] = {k: np.asarray(v, np.float64) for k, v in r["record"].items()}
-        cmd = {k: np.stack([self._value(self.cmd, n, k, shape, replies) for n in self.names], axis=-1)
+        cmd = {k: np.stack([self._value(self.cmd, n, k, shape, replies, late) for n in self.names], axis=-1)
                for k, shape in shapes.items()}
         record = {}
         for k, (shape, per_spacecraft) in record_specs.items():
             if per_spacecraft:
-                record[k] = np.stack([self._value(self.record, n, k, shape, replies) for n in self.names], axis=-1)
+                record[k] = np.stack([self._value(self.record, n, k, shape, replies, late) for n in self.names],
+                                     axis=-1)
             else:  # one value per instant (a reference): any answering process's
                 record[k] = next((self.record[n][k] for n in self.names if n in replies), np.zeros(shape))
         return cmd, record
 
-    def _value(self, table, name, k, shape, replies):
-        if name in replies or (self.hold_commands and name in table):
+    def _value(self, table, name, k, shape, replies, late):
+        if name in replies or ((self.hold_commands or name in late) and name in table):
             return table[name][k]
         return np.zeros(shape)
 
@@ -225,7 +288,7 @@ class _Links:
 class _Loop:
     """The SIL closed loop of one run (:func:`run_loop` says what it takes)."""
 
-    def __init__(self, built, system, fleet, controller, hold_commands):
+    def __init__(self, built, system, fleet, controller, hold_commands, blank):
         self.names = list(built.names)
         self.view = _engine_view(system)
         self.fleet = fleet
@@ -236,23 +299,28 @@ class _Loop:
         self.record_specs = {k: (recorded[k][1:] if spec.per_spacecraft else recorded[k], spec.per_spacecraft)
                              for k, spec in controller.output_specs().items()}
         self.command_shapes = {c: (3,) for c in controller.commands}
-        self.silence = _Silence(self.names, hold_commands)
+        self.silence = _Silence(self.names, hold_commands, blank)
         self.net_state = None
+        self.timing = Timing()
 
     def live(self):
         """Indices of the spacecraft whose flight software answers this period."""
         gone = self.fleet.killed | self.fleet.paused
         return [i for i, n in enumerate(self.names) if n not in gone]
 
-    def control(self, p, tick, begun):
+    def control(self, p, tick, begun, due=None):
         """Both rounds of period ``p`` with the processes that answer, and the network between
-        them; ``begun``: :func:`_begin`'s values. Returns the commands and the record so far."""
+        them; ``begun``: :func:`_begin`'s values; ``due``: realtime, the instant
+        (``time.monotonic()``) by which both rounds must be answered (the module docstring).
+        Returns the commands and the record so far."""
         t, y, _, measured, _, _, net_key, keys = begun
         y, keys, t_s = _host((y, keys, t))
         t_s, live = float(t_s), self.live()
         replies = self.fleet.exchange({self.names[i]: {"type": protocol.SENSE, "k": p, "t": t_s,
                                                        "y": {q: y[q][..., i].tolist() for q in y}} for i in live},
-                                      protocol.OUTBOX, p)
+                                      protocol.OUTBOX, p, due)
+        late = [i for i in live if self.names[i] not in replies]
+        live = [i for i in live if self.names[i] in replies]
         outbox = self.silence.outbox(replies)
         if self.net_state is None:  # the history before t = 0 is the first outbox
             self.net_state = _network_init(self.view, outbox)
@@ -268,8 +336,11 @@ class _Loop:
                 message["own"] = {k: m[..., mine[i]].tolist() for k, m in own.items()}
             return message
 
-        replies = self.fleet.exchange({self.names[i]: inbox(i) for i in live}, protocol.COMMAND, p)
-        cmd, ctrl_record = self.silence.commands(replies, self.command_shapes, self.record_specs)
+        replies = self.fleet.exchange({self.names[i]: inbox(i) for i in live}, protocol.COMMAND, p, due)
+        late += [i for i in live if self.names[i] not in replies]
+        self.timing.misses += [(p, i) for i in sorted(late)]
+        cmd, ctrl_record = self.silence.commands(replies, self.command_shapes, self.record_specs,
+                                                 {self.names[i] for i in late})
         return cmd, {**measured, **net_record, **ctrl_record}
 
 
@@ -290,7 +361,7 @@ def _apply_faults(plan, p, period_s, fleet, events):
 
 def run_loop(built, system, fleet, controller, n_records, *, handshake_s, faults=(), hold_commands=True, realtime=None,
              progress=None):
-    """Run the SIL closed loop; returns (RunOutput, Events).
+    """Run the SIL closed loop; returns (RunOutput, Events, Timing).
 
     Parameters
     ----------
@@ -308,25 +379,29 @@ def run_loop(built, system, fleet, controller, n_records, *, handshake_s, faults
     hold_commands : bool
         A silent spacecraft's actuators execute its last command (else zero).
     realtime : float, optional
-        Pace the run at this many simulated seconds per wall second (default: as fast as the
-        processes answer).
+        Pace the run at this many simulated seconds per wall second, with deadlines (the module
+        docstring; default: lockstep, as fast as the processes answer). The schedule starts
+        after period 0, which compiles the simulator's programs.
     progress : callable, optional
         Called with the records done so far after each record.
     """
-    loop = _Loop(built, system, fleet, controller, hold_commands)
+    (x, st, acc, tick), y0 = jax.jit(_initial_parts)(system)
+    loop = _Loop(built, system, fleet, controller, hold_commands, blank_outbox(controller, y0, len(built.names)))
     view, ppr = loop.view, system.structure.periods_per_record
     period_s = float(system.period_s)
-    (x, st, acc, tick), y0 = jax.jit(_initial_parts)(system)
     fleet.handshake(setup_messages(built, system, controller, y0), handshake_s)
     plan, events, chunks = _schedule(faults, period_s), Events(), []
     begun = _begin(view, x, st, tick, loop.reads)
     t0, compile_s = time.perf_counter(), 0.0
+    slot_s, due = (period_s / realtime if realtime else None), None
     for p in range(n_records * ppr + 1):
         interrupt.check()
         _apply_faults(plan, p, period_s, fleet, events)
-        if realtime:
-            time.sleep(max(0.0, t0 + p * period_s / realtime - time.perf_counter()))
-        cmd, record = loop.control(p, tick, begun)
+        if slot_s and p == 1:
+            schedule = time.monotonic() - slot_s  # period p starts at schedule + p slots
+        if slot_s and p >= 1:
+            due = _pace(schedule + p * slot_s, slot_s, loop.timing)
+        cmd, record = loop.control(p, tick, begun, due)
         t, _, st, _, truth, key, _, _ = begun
         if p == n_records * ppr:
             last = _host(_final(view, x, st, acc, truth, t, key, cmd, record))
@@ -341,7 +416,20 @@ def run_loop(built, system, fleet, controller, n_records, *, handshake_s, faults
                 progress(len(chunks))
         if p == 0:
             compile_s = time.perf_counter() - t0
-    return _output(built, system, chunks, last, n_records, compile_s, time.perf_counter() - t0 - compile_s), events
+    out = _output(built, system, chunks, last, n_records, compile_s, time.perf_counter() - t0 - compile_s)
+    return out, events, loop.timing
+
+
+def _pace(start, slot_s, timing):
+    """Wait for a period's scheduled ``start`` (``time.monotonic()``); returns the instant its
+    answers are due: one slot after it began (a period that begins late, because the one before
+    overran, still gives the flight software a whole slot). Counts the simulator's lag."""
+    lag_s = time.monotonic() - start
+    if lag_s < 0.0:
+        time.sleep(-lag_s)
+    timing.max_lag_s = max(timing.max_lag_s, lag_s)
+    timing.overruns += lag_s >= slot_s
+    return max(start, time.monotonic()) + slot_s
 
 
 def _output(built, system, chunks, last, n_records, compile_s, run_s):

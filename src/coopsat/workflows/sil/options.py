@@ -14,11 +14,13 @@ OPTIONS = (
                     "help": "stop it at T_S for DURATION_S of simulated time (repeatable)"}),
     (("--external",), {"action": "append", "default": [], "metavar": 'SC="COMMAND"',
                        "help": "COMMAND is that spacecraft's flight software, speaking docs/sil.md's protocol (repeatable)"}),
-    (("--fault-command",), {"choices": ("hold", "zero"), "default": "hold",
-                            "help": "what a killed or paused spacecraft's actuators execute: its last command (default) "
-                                    "or zero"}),
+    (("--fault-command",), {"choices": ("hold", "zero"), "default": None,
+                            "help": "what a killed or paused spacecraft's actuators execute: its last command or zero "
+                                    "(default: the scenario's sil.fault_command, hold)"}),
     (("--realtime",), {"type": float, "metavar": "FACTOR",
-                       "help": "pace the run at FACTOR simulated seconds per second (default: as fast as it goes)"}),
+                       "help": "pace the run at FACTOR simulated seconds per second, each period's answers due within "
+                               "its slot; deadline misses are counted and recorded, a late command held (default: "
+                               "lockstep, as fast as it goes)"}),
     (("--answer-timeout",), {"type": float, "default": 10.0, "metavar": "S",
                              "help": "longest wait for a process's answer in one control period (default 10 s)"}),
     (("--start-timeout",), {"type": float, "default": 120.0, "metavar": "S",

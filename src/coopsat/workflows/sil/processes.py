@@ -7,6 +7,12 @@ behind. Otherwise :meth:`Fleet.close` (a ``with`` block's exit, and ``atexit`` a
 resort) stops them: a ``stop`` message, a short wait, then SIGKILL (which also ends a paused
 one), then ``wait`` so that none stays a zombie. No receive waits forever: every wait polls in
 short slices, checks the processes it waits on, and has a deadline.
+
+Nothing is left in the file system either: each process's output goes to an anonymous file
+(unlinked from the start; the simulator reads its tail through its own descriptor), and the
+private folder of the IPC socket is removed once every process has connected (the end of the
+handshake; connections outlive the name), so a simulator killed outright after its start-up
+leaves no file behind.
 """
 
 import atexit
@@ -74,7 +80,9 @@ class Fleet:
         self.identity = {}  # name -> the ZeroMQ routing id its hello came from
         self.paused = set()
         self.killed = set()
-        self._dir = Path(tempfile.mkdtemp(prefix="coopsat-sil-"))  # private (0700): the socket and the logs
+        self._since = {}  # name -> since when it has been awaited without a word from it (time.monotonic())
+        self._logs = {}  # name -> its output, an anonymous file
+        self._dir = Path(tempfile.mkdtemp(prefix="coopsat-sil-"))  # private (0700): the socket, until the handshake ends
         self._ctx = zmq.Context()
         self._sock = self._ctx.socket(zmq.ROUTER)
         self._sock.linger = 0
@@ -95,12 +103,9 @@ class Fleet:
         for name, argv in self._commands.items():
             env = {**os.environ, protocol.ENDPOINT_ENV: self.endpoint, protocol.NAME_ENV: name,
                    protocol.PARENT_ENV: str(os.getpid())}
-            log = open(self._dir / f"{name}.log", "wb")
-            try:
-                self.procs[name] = subprocess.Popen([sys.executable, "-c", _LAUNCHER, *argv], env=env, stdout=log,
-                                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
-            finally:
-                log.close()
+            self._logs[name] = log = tempfile.TemporaryFile()
+            self.procs[name] = subprocess.Popen([sys.executable, "-c", _LAUNCHER, *argv], env=env, stdout=log,
+                                                stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
 
     def pids(self):
         """Process id of each spacecraft's flight software."""
@@ -141,22 +146,40 @@ class Fleet:
                 ready.add(self._name_of(identity))
             else:
                 raise SILError(f"{self._name_of(identity)}'s flight software sent '{kind}' during the handshake")
+        shutil.rmtree(self._dir, ignore_errors=True)  # every process is connected: the socket's name is not needed
 
-    def exchange(self, messages, answer, k):
+    def exchange(self, messages, answer, k, due=None):
         """Send each named process its message and collect each one's answer of type
-        ``answer`` for period ``k``; returns ``{name: message}``."""
+        ``answer`` for period ``k``; returns ``{name: message}``.
+
+        Parameters
+        ----------
+        messages : dict of str -> dict
+        answer : str
+        k : int
+        due : float, optional
+            Realtime: the instant (``time.monotonic()``) after which a missing answer is late;
+            the replies are returned without it (its late answer is discarded when it comes).
+            A process from which nothing at all (not even a late answer) has come for
+            ``answer_s`` is hung: an error, as in lockstep (``due`` None), where every answer
+            is awaited up to ``answer_s``.
+        """
+        start = time.monotonic()
         for name, message in messages.items():
             self._send(name, message)
-        deadline = time.monotonic() + self.answer_s
+            self._since.setdefault(name, start)
         replies = {}
         while len(replies) < len(messages):
             waiting = [n for n in messages if n not in replies]
-            got = self._receive(waiting, deadline, f"did not answer period {k} within {self.answer_s:g} s")
+            if due is not None and time.monotonic() >= due:
+                break
+            hung = min(self._since.get(n, start) for n in waiting) + self.answer_s
+            got = self._receive(waiting, hung, f"did not answer period {k} within {self.answer_s:g} s", until=due)
             if got is None:
                 continue
             identity, message = got
             if message.get("k") != k or message["type"] != answer:
-                continue  # a late answer to an earlier period (a process paused mid-answer)
+                continue  # a late answer to an earlier period (a process paused or late mid-answer)
             replies[self._name_of(identity)] = message
         return replies
 
@@ -174,12 +197,15 @@ class Fleet:
                 return name
         raise SILError("a message came from a process that never said hello")
 
-    def _receive(self, waiting, deadline, late):
-        """One message ``(identity, message)``, or None after a poll slice with none; raises
-        :class:`SILError` when a process waited on has exited or the deadline has passed, and
-        :class:`~coopsat.workflows.interrupt.Interrupted` on a stop request."""
-        if self._poller.poll(POLL_SLICE_MS):
+    def _receive(self, waiting, deadline, late, until=None):
+        """One message ``(identity, message)``, or None after a poll slice (ending at ``until``
+        at the latest) with none; raises :class:`SILError` when a process waited on has exited
+        or the deadline has passed, and :class:`~coopsat.workflows.interrupt.Interrupted` on a
+        stop request."""
+        slice_ms = POLL_SLICE_MS if until is None else min(POLL_SLICE_MS, max(0.0, until - time.monotonic()) * 1e3)
+        if self._poller.poll(slice_ms):
             identity, frame = self._sock.recv_multipart()
+            self._since.pop(next((n for n, i in self.identity.items() if i == identity), None), None)  # alive
             try:
                 message = protocol.decode(frame)
             except ValueError as err:
@@ -200,8 +226,11 @@ class Fleet:
     def _log_tail(self, name):
         """The last line of a process's output, as ``": LINE"`` (empty when it wrote none)."""
         try:
-            lines = (self._dir / f"{name}.log").read_text(errors="replace").strip().splitlines()
-        except OSError:
+            fd = self._logs[name].fileno()
+            size = os.fstat(fd).st_size
+            # pread: the process writes through the same open file, whose offset must not move
+            lines = os.pread(fd, 4096, max(0, size - 4096)).decode(errors="replace").strip().splitlines()
+        except (KeyError, OSError, ValueError):
             return ""
         return f": {lines[-1].strip()}" if lines else ""
 
@@ -222,9 +251,10 @@ class Fleet:
         """SIGCONT a paused flight software."""
         os.kill(self.procs[name].pid, signal.SIGCONT)
         self.paused.discard(name)
+        self._since.pop(name, None)
 
     def close(self):
-        """Stop every process and reap it; remove the socket and the logs. Idempotent."""
+        """Stop every process and reap it; close the logs, remove the socket. Idempotent."""
         atexit.unregister(self.close)
         if self._ctx is None:
             return
@@ -247,6 +277,8 @@ class Fleet:
         self._sock.close(0)
         self._ctx.term()
         self._ctx = None
+        for log in self._logs.values():
+            log.close()
         shutil.rmtree(self._dir, ignore_errors=True)
 
 

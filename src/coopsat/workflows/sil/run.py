@@ -5,7 +5,8 @@ The scenario is built and analysed by the pipeline's own functions; only the clo
 the SIL's (:mod:`~coopsat.workflows.sil.loop`). The record's attributes say that it was a SIL
 run, with which protocol and processes, and every fault injected (``sil_events``: JSON, one
 entry per kill, pause and resume, at its simulated time), so the run folder written by
-:meth:`Result.save` records when and what.
+:meth:`Result.save` records when and what. A realtime run also records its deadline misses
+(``sil_deadline_misses``, per record interval and spacecraft) and the simulator's lag.
 """
 
 import json
@@ -36,11 +37,10 @@ def per_spacecraft_form(controller, kind):
     """
     if all(hasattr(controller, a) for a in ("reads", "outbox_one", "step_one")):
         return controller
-    raise SILError(
-        f"controller kind '{kind}' cannot be split per spacecraft: its step computes every spacecraft's command at "
-        "once (sums over the whole formation's links) and it offers no per-spacecraft form (reads, outbox_one, "
-        "step_one; docs/sil.md)"
-    )
+    why = getattr(controller, "per_spacecraft_refusal", None) or (
+        "its step computes every spacecraft's command at once (sums over the whole formation's links) and it offers "
+        "no per-spacecraft form (reads, outbox_one, step_one; docs/sil.md)")
+    raise SILError(f"controller kind '{kind}' cannot be split per spacecraft: {why}")
 
 
 def parse_fault(text, kind, names, t_final_s):
@@ -109,10 +109,24 @@ def sil_command(args, out, err):
     out(f"wrote {args.out}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
     for e in json.loads(result.dataset.attrs["sil_events"]):
         out(f"  sil: {e['spacecraft']} {e['event']} at t = {e['t_s']:g} s")
+    if "sil_deadline_misses" in result.dataset:
+        out("  sil: " + realtime_line(result.dataset))
     if not args.quiet:
         for line in summary_lines(_Summary(result, args.out)):
             out(line)
     return 0
+
+
+def _with_timing(ds, built, timing, realtime):
+    """The record with a realtime run's schedule: misses per record interval and spacecraft,
+    the factor, the simulator's overruns and largest lag."""
+    counts = timing.counts(built.n_records, built.system.structure.periods_per_record, len(built.names))
+    ds["sil_deadline_misses"] = (("time", "spacecraft"), counts, {
+        "units": "1", "long_name": "control periods in the record interval whose answer from that spacecraft's flight "
+                                   "software came after its realtime deadline (the late command held)"})
+    ds.attrs.update(sil_realtime_factor=float(realtime), sil_realtime_overruns=int(timing.overruns),
+                    sil_realtime_max_lag_s=float(timing.max_lag_s))
+    return ds
 
 
 class _Summary:
@@ -122,7 +136,16 @@ class _Summary:
         self.metrics, self.comparison, self.out_dir = result.metrics, result.comparison, out_dir
 
 
-def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None, fault_command="hold", realtime=None,
+def realtime_line(ds):
+    """One line on how a realtime run kept its schedule (``ds``: its record)."""
+    misses = ds["sil_deadline_misses"].sum("time")
+    late = ", ".join(f"{n} {int(m)}" for n, m in zip(misses["spacecraft"].values, misses.values) if m) or "none"
+    return (f"realtime x{ds.attrs['sil_realtime_factor']:g}: deadline misses (periods): {late}; simulator "
+            f"{ds.attrs['sil_realtime_overruns']} periods a slot or more behind, lag at most "
+            f"{ds.attrs['sil_realtime_max_lag_s'] * 1e3:.1f} ms")
+
+
+def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None, fault_command=None, realtime=None,
         answer_s=ANSWER_S, handshake_s=HANDSHAKE_S, on_warning=None, on_start=None, progress=None):
     """Run a scenario with one flight-software process per spacecraft; returns a
     :class:`~coopsat.workflows.pipeline.Result` (nothing written; :meth:`Result.save` writes the
@@ -148,6 +171,7 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
     t_final_s = built.scenario.sim.t_final_s
     faults = [parse_fault(f, "kill", names, t_final_s) for f in kill] + [parse_fault(f, "pause", names, t_final_s)
                                                                            for f in pause]
+    fault_command = fault_command or built.scenario.sil.fault_command
     if fault_command not in ("hold", "zero"):
         raise SILError(f"fault command '{fault_command}': give hold or zero")
     if realtime is not None and not realtime > 0:
@@ -165,7 +189,7 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
         fleet.start()
         if on_start is not None:
             on_start(fleet.pids())
-        out, events = run_loop(built, system, fleet, controller, built.n_records, handshake_s=handshake_s,
+        out, events, timing = run_loop(built, system, fleet, controller, built.n_records, handshake_s=handshake_s,
                                faults=faults, hold_commands=fault_command == "hold", realtime=realtime,
                                progress=progress)
     except FileNotFoundError as err:
@@ -177,6 +201,8 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
     ds = record_dataset(built, out, sil_protocol_version=protocol.VERSION, sil_transport=fleet.endpoint.split(":")[0],
                         sil_external=json.dumps({n: externals[n] for n in externals or {}}),
                         sil_fault_command=fault_command, sil_events=json.dumps(events.rows))
+    if realtime:
+        ds = _with_timing(ds, built, timing, realtime)
     metrics, rows = analyse(built, ds)
     checks = {c.name: c for c in built.checks.values()}
     return Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built)

@@ -78,6 +78,7 @@ class Fleet:
         self.answer_s = answer_s
         self.procs = {}
         self.identity = {}  # name -> the ZeroMQ routing id its hello came from
+        self._name = {}  # and back
         self.paused = set()
         self.killed = set()
         self._since = {}  # name -> since when it has been awaited without a word from it (time.monotonic())
@@ -140,7 +141,7 @@ class Fleet:
                 if message.get("version") != protocol.VERSION:
                     raise SILError(f"{name}'s flight software speaks SIL protocol version {message.get('version')!r}; "
                                    f"this simulator speaks {protocol.VERSION}")
-                self.identity[name] = identity
+                self.identity[name], self._name[identity] = identity, name
                 self._send(name, setups[name])
             elif kind == protocol.READY:
                 ready.add(self._name_of(identity))
@@ -192,10 +193,10 @@ class Fleet:
             raise SILError(f"{name}'s flight software cannot be reached ({err}){self._log_tail(name)}") from None
 
     def _name_of(self, identity):
-        for name, ident in self.identity.items():
-            if ident == identity:
-                return name
-        raise SILError("a message came from a process that never said hello")
+        try:
+            return self._name[identity]
+        except KeyError:
+            raise SILError("a message came from a process that never said hello") from None
 
     def _receive(self, waiting, deadline, late, until=None):
         """One message ``(identity, message)``, or None after a poll slice (ending at ``until``
@@ -205,7 +206,7 @@ class Fleet:
         slice_ms = POLL_SLICE_MS if until is None else min(POLL_SLICE_MS, max(0.0, until - time.monotonic()) * 1e3)
         if self._poller.poll(slice_ms):
             identity, frame = self._sock.recv_multipart()
-            self._since.pop(next((n for n, i in self.identity.items() if i == identity), None), None)  # alive
+            self._since.pop(self._name.get(identity), None)  # alive
             try:
                 message = protocol.decode(frame)
             except ValueError as err:

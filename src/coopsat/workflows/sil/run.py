@@ -190,8 +190,8 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
         if on_start is not None:
             on_start(fleet.pids())
         out, events, timing = run_loop(built, system, fleet, controller, built.n_records, handshake_s=handshake_s,
-                               faults=faults, hold_commands=fault_command == "hold", realtime=realtime,
-                               progress=progress)
+                                       faults=faults, hold_commands=fault_command == "hold", realtime=realtime,
+                                       progress=progress)
     except FileNotFoundError as err:
         raise SILError(f"a flight-software process cannot start: {err}") from None
     finally:

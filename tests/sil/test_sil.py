@@ -74,6 +74,9 @@ def test_killed_and_paused_flight_software_go_silent_as_lost_links():
         np.testing.assert_allclose(ours.dataset[v].values, ref.dataset[v].values, rtol=0, atol=1e-12, err_msg=v)
     events = [(e["spacecraft"], e["event"], round(e["t_s"], 9)) for e in json.loads(ours.dataset.attrs["sil_events"])]
     assert events == [("sat1", "paused", 0.3), ("sat1", "resumed", 0.7), ("sat3", "killed", 1.5)]
+    w = ours.dataset["omega"].sel(spacecraft=["sat1", "sat2", "sat4", "sat5"])
+    rate_spread = (w.max("spacecraft") - w.min("spacecraft")).max("component")
+    assert rate_spread.sel(time=2.0) < rate_spread.sel(time=1.5)  # the other four keep synchronising
 
 
 def test_the_external_plain_python_law_takes_a_spacecraft_s_place():

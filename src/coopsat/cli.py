@@ -22,15 +22,14 @@ _process_configured = False
 
 
 def configure_process(cache=True):
-    """Set up the command's own process (and the test suite's): XLA's CPU options and the
-    persistent compilation cache (:func:`coopsat.core.runtime.process_environment`); float64 follows
-    at the first build or run. Idempotent; a library import never does this.
+    """Set up the command's own process (and the test suite's): XLA's CPU options, the persistent
+    compilation cache (:func:`coopsat.core.runtime.process_environment`), xarray's Dask check
+    without ``dask.array`` (:mod:`coopsat.core.lazy_dask`). Idempotent; never at library import.
 
-    Call before the first computation: XLA reads ``XLA_FLAGS`` when its CPU backend starts.
-    JAX is not imported here (``coopsat list`` stays quick): if it is not loaded yet, the cache
-    settings go into the ``JAX_*`` variables it reads when imported.
-    """
-    from coopsat.core import runtime
+    Call before the first computation (XLA reads ``XLA_FLAGS`` when its CPU backend starts); JAX
+    is not imported here (``coopsat list`` stays quick): unloaded, it reads the cache settings from
+    ``JAX_*`` variables. float64 follows at the first build or run."""
+    from coopsat.core import lazy_dask, runtime
 
     global _process_configured
     if _process_configured:
@@ -41,6 +40,7 @@ def configure_process(cache=True):
     if cache and jax_loaded:
         for name, value in runtime.cache_settings().items():
             sys.modules["jax"].config.update(name, value)
+    lazy_dask.install()
 
 
 def _input_errors():

@@ -23,7 +23,10 @@ PROBE = textwrap.dedent(
         lowerings.update({f"{plat}:{p}": id(r) for plat, rules in mlir._platform_specific_lowerings.items()
                           for p, r in rules.items()})
         config = {k: repr(v) for k, v in jax.config.values.items()}
-        return {"environ": dict(os.environ), "config": config, "lowerings": lowerings}
+        # coopsat's own import hooks (the command's lazy_dask one must stay out of a library import;
+        # third-party imports may add theirs, six's importer for one)
+        import_hooks = {repr(f): 1 for f in sys.meta_path if type(f).__module__.startswith("coopsat")}
+        return {"environ": dict(os.environ), "config": config, "lowerings": lowerings, "import_hooks": import_hooks}
 
     before = snapshot()
     import coopsat
@@ -58,7 +61,7 @@ def test_importing_every_module_changes_nothing():
     assert out.returncode == 0, out.stderr[-3000:]
     report = json.loads(out.stdout.strip().splitlines()[-1])
     assert report["modules"] > 100
-    assert report["diff"] == {"environ": [], "config": [], "lowerings": []}
+    assert report["diff"] == {"environ": [], "config": [], "lowerings": [], "import_hooks": []}
     # The one documented change happens at the first build, and only that one.
     assert report["x64_after_build"] is True
     assert report["config_changed_by_build"] == ["jax_enable_x64"]

@@ -250,6 +250,13 @@ def test_an_external_that_does_not_answer_the_handshake_is_refused():
     assert time.monotonic() - t0 < 30
 
 
+def test_an_external_broadcast_of_the_wrong_shape_ends_the_run_in_one_line():
+    wrong = Path(__file__).with_name("wrong_outbox.py")
+    with pytest.raises(SILError, match=r"^sat2's flight software broadcast \{omega: \[3\], q: \[3\]\}; the law "
+                                       r"broadcasts \{omega: \[3\], q: \[4\]\}$"):
+        sil(_short(), externals={"sat2": f"{sys.executable} {wrong}"})
+
+
 def test_the_command_line_says_bad_input_in_one_line(tmp_path):
     out = subprocess.run([sys.executable, "-m", "coopsat.cli", "sil", "consensus-sync-a-stable", "--set",
                           "sim.t_final_s=2", "--kill", "sat7@1", "--out", str(tmp_path / "D")],

@@ -85,8 +85,8 @@ class Timing:
         """Late periods per record interval and spacecraft, (n_records + 1, n) (the last row:
         the final sample's period)."""
         counts = np.zeros((n_records + 1, n), np.int64)
-        for p, i in self.misses:
-            counts[min(p // periods_per_record, n_records), i] += 1
+        p, i = np.asarray(self.misses, np.int64).reshape(-1, 2).T
+        np.add.at(counts, (np.minimum(p // periods_per_record, n_records), i), 1)
         return counts
 
 
@@ -216,6 +216,7 @@ class _Silence:
         self.names = names
         self.hold_commands = hold_commands
         self.blank = blank  # a broadcast of zeros: a spacecraft silent before its first one
+        self.shapes = {k: v.shape for k, v in blank.items()}
         self.msg, self.cmd, self.record = {}, {}, {}
 
     def outbox(self, replies):
@@ -230,9 +231,9 @@ class _Silence:
         for name, r in replies.items():
             msg = {k: np.asarray(v, np.float64) for k, v in r["msg"].items()}
             shapes = {k: v.shape for k, v in msg.items()}
-            if shapes != {k: v.shape for k, v in self.blank.items()}:
+            if shapes != self.shapes:
                 raise SILError(f"{name}'s flight software broadcast {_shapes(shapes)}; the law broadcasts "
-                               f"{_shapes({k: v.shape for k, v in self.blank.items()})}")
+                               f"{_shapes(self.shapes)}")
             self.msg[name] = msg
         return {k: np.stack([self.msg.get(n, self.blank)[k] for n in self.names], axis=-1) for k in self.blank}
 

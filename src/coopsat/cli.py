@@ -153,8 +153,7 @@ def _cmd_export(args):
 def _cmd_plot(args):
     from coopsat.api import plot
 
-    paths = plot(args.run_dir, what=args.what, out=args.out)
-    print(f"wrote {', '.join(str(p) for p in paths)}")
+    print(f"wrote {', '.join(str(p) for p in plot(args.run_dir, what=args.what, out=args.out))}")
     return 0
 
 
@@ -252,8 +251,7 @@ def _cmd_tune(args):
     report = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     result = tune(args.scenario, args.objective, args.constraint, args.params, overrides=args.set, starts=args.starts,
                   spread=args.spread, max_iter=args.max_iter, seed=args.seed, polish=args.polish, report=report)
-    for line in report_lines(result):
-        print(line)
+    _print(report_lines(result))
     if out is not None:
         write_tune_folder(out, result)
         print(f"wrote {out}/tuned.toml, tune.md, tune.json")
@@ -268,10 +266,9 @@ def _cmd_campaign_list(args):
 
 def _cmd_campaign_run(args):
     from coopsat.workflows.campaign.runner import run_campaign
+    from coopsat.workflows.campaign.spec import CampaignError
 
     if args.workers is not None and args.workers < 1:
-        from coopsat.workflows.campaign.spec import CampaignError
-
         raise CampaignError(f"--workers {args.workers}: must be at least 1")
     out = run_campaign(args.file, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
     print(f"{args.file}: {out['runs']} runs in {out['batches']} batches ({out['skipped_batches']} already on disk); "
@@ -405,8 +402,7 @@ def _add_design(sub):
         "delay-gain", help="gain certified by a delay-dependent LMI for time-varying delay up to h (leader-follower)",
         description="Search the gain K = [k_angle, k_rate] whose certified decay rate at the delay bound h is largest "
                     "(a minute), and write it as a scenario that extends the one given. Progress goes to stderr (a "
-                    "line per stage and per tenth of the search); the result to stdout, its last line 'wrote FILE'.",
-    )
+                    "line per stage and per tenth of the search); the result to stdout, its last line 'wrote FILE'.")
     dg.add_argument("scenario")
     dg.add_argument("--h", type=float, help="delay bound to certify, s (default: the network's largest single-hop delay)")
     dg.add_argument("--analyse", action="store_true", help="no synthesis: the largest h the LMI certifies for the scenario's K")
@@ -432,9 +428,7 @@ def _add_topology(sub):
 
 
 def _add_tradeoff(sub):
-    trade = sub.add_parser(
-        "tradeoff", help="fuel against settling time of formation designs, swept over their weight (SPEC §4)"
-    )
+    trade = sub.add_parser("tradeoff", help="fuel against settling time of formation designs, swept over their weight (SPEC §4)")
     trade.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="formation-observer scenarios (e.g. the -lmi and -lqr pair)")
     trade.add_argument("--scales", help="comma-separated Bryson force scales to sweep, N (default 0.03 … 0.3)")
     trade.add_argument("--coordinates", default="hub,orthonormal", help="relative coordinates to sweep (default hub,orthonormal)")
@@ -452,8 +446,7 @@ def _add_sweep(sub):
         description="Run a scenario once per value of one or more fields and tabulate its metrics. Several --vary "
                     "with the same number of values are zipped: run k takes the k-th value of each (no cross product). "
                     "Runs that share a compiled structure run as one vmapped batch; each run's metrics are those of "
-                    "coopsat run with the same --set.",
-    )
+                    "coopsat run with the same --set.")
     sweep.add_argument("scenario", help="bundled scenario name or path to a .toml file")
     sweep.add_argument("--vary", action="append", required=True, metavar="FIELD=V1,V2,...",
                        help="field and the values it takes, each a --set value (e.g. controller.period_s=0.01,0.02 or "
@@ -474,8 +467,7 @@ def _add_pair(sub):
         "pair", help="run two scenarios on the same seeds and compare them (paired differences)",
         description="Run scenarios A and B on the same seeds (same sensor noise and disturbance realisations; they must "
                     "share [[sensors]], [[disturbances]], [[spacecraft]], [orbit] and [sim]) and compare every metric "
-                    "and the paper's paired series (B - A over time).",
-    )
+                    "and the paper's paired series (B - A over time).")
     pair.add_argument("a", help="scenario A (bundled name or .toml)")
     pair.add_argument("b", help="scenario B (bundled name or .toml)")
     pair.add_argument("--seeds", type=int, default=3, metavar="K", help="seeds seed(A) … seed(A)+K-1 (default 3)")
@@ -535,8 +527,7 @@ def _add_bench(sub):
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")
     bench.add_argument("--steps", type=int, default=None, help="ticks per timed run (default: scaled to N)")
     bench.add_argument("--batch", type=int, default=1000, help="runs of N = 5 in one batch (0: skip)")
-    bench.add_argument("--no-native", action="store_true",
-                       help="keep the whole loop in XLA (no native CPU kernel)")
+    bench.add_argument("--no-native", action="store_true", help="keep the whole loop in XLA (no native CPU kernel)")
     bench.set_defaults(func=_cmd_bench)
 
 
@@ -596,5 +587,12 @@ def main(argv=None):
     return EXIT_TERMINATED if stop == signal.SIGTERM else EXIT_INTERRUPTED
 
 
+def command():
+    """The ``coopsat`` script: :func:`main`, then the end without Python's teardown (issue 26)."""
+    from coopsat.core.process_exit import end
+
+    end(main())
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    command()

@@ -68,6 +68,7 @@ def test_other_platforms_fall_back_without_raising(monkeypatch, system, machine)
 
 def test_a_fallback_notice_is_given_once_per_process(monkeypatch):
     monkeypatch.setattr(capability.sys, "platform", "win32")
+    monkeypatch.setattr(capability, "NATIVE_WORTH_SC_STEPS", 0)  # this short run would not ask otherwise
     monkeypatch.delenv(capability.ENV, raising=False)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -232,6 +233,7 @@ def test_cli_prints_the_fallback_as_one_notice_line(monkeypatch, tmp_path, capsy
     from coopsat.cli import main
 
     monkeypatch.setattr(capability.sys, "platform", "win32")
+    monkeypatch.setattr(capability, "NATIVE_WORTH_SC_STEPS", 0)  # this short run would not ask otherwise
     monkeypatch.delenv(capability.ENV, raising=False)
     assert main(["run", "rigid-body-free", "--set", "sim.t_final_s=1", "--out", str(tmp_path / "r"), "-q", "--no-figures"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
@@ -271,7 +273,7 @@ def test_a_probed_verdict_is_kept_and_a_new_process_does_not_probe_again(verdict
     assert path.name == f"{capability.install_key()}.json"
     capability.reset()  # a new process
     monkeypatch.setattr(capability, "probe_problem", lambda: pytest.fail("the kept verdict is enough"))
-    assert capability.use_native(sc_steps=1) is True
+    assert capability.use_native(sc_steps=capability.NATIVE_WORTH_SC_STEPS) is True
 
 
 def test_a_kept_failure_falls_back_with_its_reason(verdict_dir, monkeypatch):
@@ -284,15 +286,16 @@ def test_a_kept_failure_falls_back_with_its_reason(verdict_dir, monkeypatch):
         assert capability.use_native() is False
 
 
-def test_a_small_run_with_no_verdict_takes_xla_and_decides_nothing(verdict_dir, monkeypatch):
+def test_a_small_run_takes_xla_and_decides_nothing_with_or_without_a_verdict(verdict_dir, monkeypatch):
     monkeypatch.setattr(capability, "probe_problem", lambda: pytest.fail("too small to probe"))
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no notice: nothing failed
-        assert capability.use_native(sc_steps=capability.PROBE_WORTH_SC_STEPS - 1) is False
+        assert capability.use_native(sc_steps=capability.NATIVE_WORTH_SC_STEPS - 1) is False
     assert not capability._verdict and not verdict_dir.exists()
     monkeypatch.setattr(capability, "probe_problem", lambda: None)
-    assert capability.use_native(sc_steps=capability.PROBE_WORTH_SC_STEPS) is True  # a large run decides
-    assert capability.use_native(sc_steps=1) is True  # and the process keeps the verdict
+    assert capability.use_native(sc_steps=capability.NATIVE_WORTH_SC_STEPS) is True  # a large run decides
+    assert capability.use_native(sc_steps=capability.NATIVE_WORTH_SC_STEPS - 1) is False  # the small one still not
+    assert capability.use_native(True, sc_steps=1) is True  # unless the kernels are asked for
 
 
 def test_required_kernels_are_probed_whatever_the_run(verdict_dir, monkeypatch):

@@ -9,6 +9,10 @@ the repeats, and the target.
 * cold: each repeat with an empty cache folder (``COOPSAT_JAX_CACHE`` pointed at a new one),
   as the very first run after installing.
 
+Two lower bounds follow the table: the imports alone that any one-shot run with figures pays
+(JAX, xarray with h5netcdf, matplotlib), and a run repeated in a process that has already run
+it (imports and compilation paid: what a resident process would still pay per run).
+
 Usage: ``python benchmarks/latency.py [--repeats N] [--cold-repeats N]``. A benchmark, not a
 test: the machine's load moves the figures; quote them with the load (printed).
 """
@@ -65,6 +69,39 @@ def measure(args, repeats, cold, workdir):
     return times
 
 
+FLOOR_IMPORTS = "import jax.numpy, xarray, h5netcdf, matplotlib.figure"
+"""What any one-shot ``coopsat run`` with figures must import: the closed loop (JAX), the
+record (xarray, h5netcdf) and the figures (matplotlib)."""
+
+IN_PROCESS = """
+import shutil, statistics, sys, time
+from coopsat.cli import configure_process
+configure_process()
+from coopsat.workflows.pipeline import run_scenario
+times = []
+for k in range(int(sys.argv[2]) + 1):
+    out = f"{sys.argv[1]}/in-process-{k}"
+    start = time.perf_counter()
+    run_scenario("consensus-sync-a", out_dir=out)
+    times.append(time.perf_counter() - start)
+    shutil.rmtree(out)
+print(" ".join(f"{t:.4f}" for t in times[1:]))
+"""
+"""A second and later ``run_scenario`` in one process: what a resident process would still pay
+per run, everything imported and the program compiled."""
+
+
+def floors(repeats, workdir):
+    """(label, times) of the two lower bounds under the targets: the imports alone, and a run in
+    a process that has already run it once."""
+    env = dict(os.environ, COOPSAT_JAX_CACHE=str(Path(workdir) / "warm-cache"))
+    imports = [timed([sys.executable, "-c", FLOOR_IMPORTS], env, workdir) for _ in range(repeats)]
+    done = subprocess.run([sys.executable, "-c", IN_PROCESS, workdir, str(repeats)], env=env, cwd=workdir,
+                          capture_output=True, text=True, check=True)
+    return [(f"floor: python -c '{FLOOR_IMPORTS}'", imports),
+            ("floor: run_scenario again in one process", [float(t) for t in done.stdout.split()])]
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5, help="timed runs of each warm command (default 5)")
@@ -79,6 +116,9 @@ def main():
             verdict = "met" if statistics.median(times) <= target else "NOT met"
             print(f"{label:<50} {statistics.median(times):>9.2f} {min(times):>6.2f}–{max(times):<6.2f} {target:>9.1f}  {verdict}",
                   flush=True)
+        print("lower bounds (no target: what the figures above cannot go below on this machine)")
+        for label, times in floors(args.repeats, workdir):
+            print(f"{label:<50} {statistics.median(times):>9.2f} {min(times):>6.2f}–{max(times):<6.2f}", flush=True)
 
 
 if __name__ == "__main__":

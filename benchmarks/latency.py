@@ -36,10 +36,14 @@ COMMANDS = [
 ]
 
 
+MODULE = False
+"""``--module``: time ``python -m coopsat.cli`` rather than the installed script."""
+
+
 def _coopsat():
     """The ``coopsat`` script beside this interpreter (the installed command), else ``-m``."""
     script = Path(sys.executable).with_name("coopsat")
-    return [str(script)] if script.exists() else [sys.executable, "-m", "coopsat.cli"]
+    return [str(script)] if script.exists() and not MODULE else [sys.executable, "-m", "coopsat.cli"]
 
 
 def timed(argv, env, workdir):
@@ -98,7 +102,7 @@ def floors(repeats, workdir):
     imports = [timed([sys.executable, "-c", FLOOR_IMPORTS], env, workdir) for _ in range(repeats)]
     done = subprocess.run([sys.executable, "-c", IN_PROCESS, workdir, str(repeats)], env=env, cwd=workdir,
                           capture_output=True, text=True, check=True)
-    return [(f"floor: python -c '{FLOOR_IMPORTS}'", imports),
+    return [("floor: imports (jax.numpy, xarray, h5netcdf, mpl)", imports),
             ("floor: run_scenario again in one process", [float(t) for t in done.stdout.split()])]
 
 
@@ -106,7 +110,11 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5, help="timed runs of each warm command (default 5)")
     parser.add_argument("--cold-repeats", type=int, default=3, help="timed cold runs (default 3)")
+    parser.add_argument("--module", action="store_true",
+                        help="time python -m coopsat.cli (another checkout through PYTHONPATH, say), not the script")
     args = parser.parse_args()
+    global MODULE
+    MODULE = args.module
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"coopsat latency, {os.cpu_count()} cores, load average {load:.2f} at start")
     print(f"{'command':<50} {'median s':>9} {'range s':>13} {'target s':>9}")

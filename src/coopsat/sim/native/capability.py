@@ -18,15 +18,18 @@ The probe compiles six small loops: about 7 s with JAX's persistent cache warm a
 it empty (the 2-core machine), more than a short run takes on the XLA path. So its verdict is
 kept on disk where the process keeps JAX's persistent compilation cache (the command line
 always; a library user who turned that cache on), keyed by everything it depends on
-(:func:`install_key`).
+(:func:`install_key`), and a process with no verdict yet runs the probe only for a run of at
+least :data:`PROBE_WORTH_SC_STEPS`: a smaller one takes the XLA path and leaves the verdict
+open (the plant kernels give XLA's bits; the law kernel, used from 128 spacecraft, rounds
+differently by about 1e-16).
 
-In ``auto`` mode a run of fewer than :data:`NATIVE_WORTH_SC_STEPS` takes the XLA path whatever
-the verdict, and needs none: loading the kernels into a process (numba's import and the
-kernels' cached machine code) is 0.7–0.9 s on the 2-core machine, more than they save on such a
-run (``coopsat run consensus-sync-a``: 6.1–6.5 s with them, 4.9–5.7 s without, the loop 0.1 s
-either way). The size is one run's, also in a batch, so a run takes the same path alone, in
-any batch and in a campaign's replay (the plant kernels give XLA's bits; the law kernel, used
-from 128 spacecraft, rounds differently by about 1e-16).
+A process that runs one run and ends (``coopsat run``: :func:`one_run`) takes the XLA path in
+``auto`` for a run below the same size even with a verdict: loading the kernels (numba's import
+and their cached machine code) is 0.7–0.9 s of such a process on the 2-core machine, more than
+they save on the run (``coopsat run consensus-sync-a``, 2e5 spacecraft-steps: 6.1–6.5 s with
+them, 4.9–5.7 s without, its loop 0.1 s either way). Every other process keeps them: a
+campaign's worker or a notebook pays the load once for many runs (a campaign of 200 such runs
+in batches of 50 took 20–22 s with them and 28–33 s without).
 
 ``auto`` takes the XLA path when a step fails, with one :class:`NativeFallbackWarning` per
 process naming the reason (the command line prints it as one line); ``1`` makes the failure an
@@ -42,6 +45,7 @@ import platform
 import sys
 import threading
 import warnings
+from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
 from typing import NamedTuple
@@ -65,12 +69,12 @@ PROBE_RTOL = 1e-12
 kernels are bit-identical to XLA; the law kernel rounds differently (≈ 1e-16 relative)."""
 
 
-NATIVE_WORTH_SC_STEPS = 2e7
-"""Smallest run, in spacecraft × integration steps of one run, that takes the native kernels in
-``auto`` mode (and so runs the probe in a process with no verdict): about 10 s of the XLA loop
-at the consensus benchmark's 2e6 spacecraft-steps/s, where the kernels' faster loop (README,
-Speed: about 5 % at 5 spacecraft, 80–90 % at 1000) pays for loading them (0.7–0.9 s) and, once
-per install, for the probe."""
+PROBE_WORTH_SC_STEPS = 2e7
+"""Smallest run, in spacecraft × integration steps, for which a process with no verdict runs
+the probe, and a process of one run (:func:`one_run`) loads the kernels: about 10 s of the XLA
+loop at the consensus benchmark's 2e6 spacecraft-steps/s, the probe's own cost with empty
+caches, where the kernels' faster loop (README, Speed: about 5 % at 5 spacecraft, 80–90 % at
+1000) pays for loading them."""
 
 
 class NativeFallbackWarning(UserWarning):
@@ -219,14 +223,17 @@ _verdict = []
 _warned = []
 
 
-def _checked():
-    """The process's verdict: the first failing check's reason, or None (cached)."""
+def _checked(worth_probing=True):
+    """The process's verdict: the first failing check's reason, or None (cached); None, with
+    nothing decided, when only the probe could tell and the run is not ``worth_probing``."""
     with _lock:
         if not _verdict:
             reason = platform_problem() or version_problem()
             path = verdict_path() if reason is None else None
             kept = _load_verdict(path) if path is not None else None
             if kept is None and reason is None:
+                if not worth_probing:
+                    return None
                 reason = import_problem() or probe_problem()  # numba's import alone is 0.5 s
                 if path is not None:
                     _keep_verdict(path, Verdict(reason is None, reason))
@@ -237,9 +244,9 @@ def _checked():
 def use_native(native=None, sc_steps=None):
     """Whether this process runs the native kernels for a run that asks ``native`` (True,
     False, or None: :data:`ENV`). ``sc_steps``: the run's size (spacecraft × integration
-    steps, of one run of a batch); in ``auto`` mode a run smaller than
-    :data:`NATIVE_WORTH_SC_STEPS` takes the XLA path without a verdict (an unknown size may
-    take the kernels).
+    steps, of one run of a batch); in ``auto`` mode a process with no verdict yet runs the
+    probe only when it is at least :data:`PROBE_WORTH_SC_STEPS` (or unknown), and inside
+    :func:`one_run` a smaller run takes the XLA path whatever the verdict.
 
     Raises
     ------
@@ -247,11 +254,11 @@ def use_native(native=None, sc_steps=None):
         The kernels were required and cannot run, or :data:`ENV` is not 0, 1 or auto.
     """
     mode = requested(native)
-    if mode == "0":
+    if mode == "0" or (mode == "auto" and _one_run and sc_steps is not None and sc_steps < PROBE_WORTH_SC_STEPS):
         return False
-    if mode == "auto" and sc_steps is not None and sc_steps < NATIVE_WORTH_SC_STEPS:
+    verdict = _checked(mode == "1" or sc_steps is None or sc_steps >= PROBE_WORTH_SC_STEPS)
+    if verdict is None:
         return False
-    verdict = _checked()
     if verdict.native:
         return True
     if mode == "1":
@@ -261,6 +268,20 @@ def use_native(native=None, sc_steps=None):
         warnings.warn(f"native CPU kernels off: {verdict.reason}; running the XLA path (same results, slower)",
                       NativeFallbackWarning, stacklevel=3)
     return False
+
+
+_one_run = []
+
+
+@contextmanager
+def one_run():
+    """Within: this process runs one run and ends (``coopsat run``), so in ``auto`` mode a run
+    smaller than :data:`PROBE_WORTH_SC_STEPS` does not load the kernels (module docstring)."""
+    _one_run.append(True)
+    try:
+        yield
+    finally:
+        _one_run.pop()
 
 
 def reset():

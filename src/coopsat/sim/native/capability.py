@@ -29,7 +29,7 @@ and their cached machine code) is 0.7–0.9 s of such a process on the 2-core ma
 they save on the run (``coopsat run consensus-sync-a``, 2e5 spacecraft-steps: 6.1–6.5 s with
 them, 4.9–5.7 s without, its loop 0.1 s either way). Every other process keeps them: a
 campaign's worker or a notebook pays the load once for many runs (a campaign of 200 such runs
-in batches of 50 took 20–22 s with them and 28–33 s without).
+in batches of 50, one worker: 20–23 s with them, 28–33 s without).
 
 ``auto`` takes the XLA path when a step fails, with one :class:`NativeFallbackWarning` per
 process naming the reason (the command line prints it as one line); ``1`` makes the failure an

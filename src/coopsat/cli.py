@@ -112,13 +112,18 @@ def _print(lines):
 
 
 def _cmd_run(args):
-    from coopsat.sim.native.capability import one_run
     from coopsat.workflows.pipeline import run_scenario, summary_lines
 
-    with one_run():  # this process ends after the run: the native kernels only where they pay for loading
-        result = run_scenario(args.scenario, out_dir=args.out, overrides=args.set, progress=not args.quiet,
-                              figures=not args.no_figures, on_warning=lambda note: print(f"warning: {note}", file=sys.stderr),
-                              allow_long=args.allow_long, report=not args.no_report)
+    result = run_scenario(
+        args.scenario,
+        out_dir=args.out,
+        overrides=args.set,
+        progress=not args.quiet,
+        figures=not args.no_figures,
+        on_warning=lambda note: print(f"warning: {note}", file=sys.stderr),
+        allow_long=args.allow_long,
+        report=not args.no_report,
+    )
     print(f"wrote {result.out_dir}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
     if not args.quiet:
         _print(summary_lines(result))

@@ -68,7 +68,6 @@ def test_other_platforms_fall_back_without_raising(monkeypatch, system, machine)
 
 def test_a_fallback_notice_is_given_once_per_process(monkeypatch):
     monkeypatch.setattr(capability.sys, "platform", "win32")
-    monkeypatch.setattr(capability, "PROBE_WORTH_SC_STEPS", 0)  # this short run would not ask otherwise
     monkeypatch.delenv(capability.ENV, raising=False)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -235,7 +234,6 @@ def test_cli_prints_the_fallback_as_one_notice_line(monkeypatch, tmp_path, capsy
     from coopsat.cli import main
 
     monkeypatch.setattr(capability.sys, "platform", "win32")
-    monkeypatch.setattr(capability, "PROBE_WORTH_SC_STEPS", 0)  # this short run would not ask otherwise
     monkeypatch.delenv(capability.ENV, raising=False)
     assert main(["run", "rigid-body-free", "--set", "sim.t_final_s=1", "--out", str(tmp_path / "r"), "-q", "--no-figures"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
@@ -319,29 +317,3 @@ def test_the_key_changes_with_a_version(monkeypatch):
     real = capability.metadata.version
     monkeypatch.setattr(capability.metadata, "version", lambda name: "9.9" if name == "numba" else real(name))
     assert capability.install_key() != key
-
-
-def test_a_process_of_one_small_run_does_not_load_the_kernels_even_with_a_verdict(verdict_dir, monkeypatch):
-    monkeypatch.setattr(capability, "probe_problem", lambda: None)
-    small, large = capability.PROBE_WORTH_SC_STEPS - 1, capability.PROBE_WORTH_SC_STEPS
-    assert capability.use_native(sc_steps=large) is True  # the verdict: the kernels are trusted here
-    with capability.one_run():
-        assert capability.use_native(sc_steps=small) is False
-        assert capability.use_native(sc_steps=large) is True
-        assert capability.use_native(True, sc_steps=small) is True  # asked for, whatever the size
-    assert capability.use_native(sc_steps=small) is True  # a process of many runs keeps them
-
-
-def test_coopsat_run_of_a_short_run_takes_the_xla_path_where_the_kernels_are_trusted(monkeypatch, tmp_path):
-    from coopsat.cli import main
-    from coopsat.sim import engine
-
-    monkeypatch.setattr(capability, "_checked", lambda *args: capability.Verdict(True, None))
-    monkeypatch.delenv(capability.ENV, raising=False)
-    native, simulate_as_built = [], engine.simulate_as_built
-    monkeypatch.setattr(engine, "simulate_as_built",
-                        lambda system, *a, **k: native.append(system.structure.native) or simulate_as_built(system, *a, **k))
-    argv = ["run", "rigid-body-free", "--set", "sim.t_final_s=2", "-q", "--no-figures", "--no-report"]
-    assert main([*argv, "--out", str(tmp_path / "r")]) == 0
-    assert native == [False]
-    assert capability.use_native(sc_steps=1) is True  # the process keeps them once the command is done

@@ -23,14 +23,6 @@ least :data:`PROBE_WORTH_SC_STEPS`: a smaller one takes the XLA path and leaves 
 open (the plant kernels give XLA's bits; the law kernel, used from 128 spacecraft, rounds
 differently by about 1e-16).
 
-A process that runs one run and ends (``coopsat run``: :func:`one_run`) takes the XLA path in
-``auto`` for a run below the same size even with a verdict: loading the kernels (numba's import
-and their cached machine code) is 0.7–0.9 s of such a process on the 2-core machine, more than
-they save on the run (``coopsat run consensus-sync-a``, 2e5 spacecraft-steps: 6.1–6.5 s with
-them, 4.9–5.7 s without, its loop 0.1 s either way). Every other process keeps them: a
-campaign's worker or a notebook pays the load once for many runs (a campaign of 200 such runs
-in batches of 50, one worker: 20–23 s with them, 28–33 s without).
-
 ``auto`` takes the XLA path when a step fails, with one :class:`NativeFallbackWarning` per
 process naming the reason (the command line prints it as one line); ``1`` makes the failure an
 error (:class:`NativeUnavailableError`), for a test or a benchmark that must measure the
@@ -45,7 +37,6 @@ import platform
 import sys
 import threading
 import warnings
-from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
 from typing import NamedTuple
@@ -71,10 +62,8 @@ kernels are bit-identical to XLA; the law kernel rounds differently (≈ 1e-16 r
 
 PROBE_WORTH_SC_STEPS = 2e7
 """Smallest run, in spacecraft × integration steps, for which a process with no verdict runs
-the probe, and a process of one run (:func:`one_run`) loads the kernels: about 10 s of the XLA
-loop at the consensus benchmark's 2e6 spacecraft-steps/s, the probe's own cost with empty
-caches, where the kernels' faster loop (README, Speed: about 5 % at 5 spacecraft, 80–90 % at
-1000) pays for loading them."""
+the probe: about 10 s of the XLA loop at the consensus benchmark's 2e6 spacecraft-steps/s,
+the probe's own cost with empty caches."""
 
 
 class NativeFallbackWarning(UserWarning):
@@ -245,8 +234,7 @@ def use_native(native=None, sc_steps=None):
     """Whether this process runs the native kernels for a run that asks ``native`` (True,
     False, or None: :data:`ENV`). ``sc_steps``: the run's size (spacecraft × integration
     steps, of one run of a batch); in ``auto`` mode a process with no verdict yet runs the
-    probe only when it is at least :data:`PROBE_WORTH_SC_STEPS` (or unknown), and inside
-    :func:`one_run` a smaller run takes the XLA path whatever the verdict.
+    probe only when it is at least :data:`PROBE_WORTH_SC_STEPS` (or unknown).
 
     Raises
     ------
@@ -254,7 +242,7 @@ def use_native(native=None, sc_steps=None):
         The kernels were required and cannot run, or :data:`ENV` is not 0, 1 or auto.
     """
     mode = requested(native)
-    if mode == "0" or (mode == "auto" and _one_run and sc_steps is not None and sc_steps < PROBE_WORTH_SC_STEPS):
+    if mode == "0":
         return False
     verdict = _checked(mode == "1" or sc_steps is None or sc_steps >= PROBE_WORTH_SC_STEPS)
     if verdict is None:
@@ -268,20 +256,6 @@ def use_native(native=None, sc_steps=None):
         warnings.warn(f"native CPU kernels off: {verdict.reason}; running the XLA path (same results, slower)",
                       NativeFallbackWarning, stacklevel=3)
     return False
-
-
-_one_run = []
-
-
-@contextmanager
-def one_run():
-    """Within: this process runs one run and ends (``coopsat run``), so in ``auto`` mode a run
-    smaller than :data:`PROBE_WORTH_SC_STEPS` does not load the kernels (module docstring)."""
-    _one_run.append(True)
-    try:
-        yield
-    finally:
-        _one_run.pop()
 
 
 def reset():

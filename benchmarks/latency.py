@@ -36,14 +36,11 @@ COMMANDS = [
 ]
 
 
-MODULE = False
-"""``--module``: time ``python -m coopsat.cli`` rather than the installed script."""
-
-
-def _coopsat():
-    """The ``coopsat`` script beside this interpreter (the installed command), else ``-m``."""
+def _coopsat(module=False):
+    """The ``coopsat`` script beside this interpreter (the installed command), else (or with
+    ``module``) ``python -m coopsat.cli``."""
     script = Path(sys.executable).with_name("coopsat")
-    return [str(script)] if script.exists() and not MODULE else [sys.executable, "-m", "coopsat.cli"]
+    return [str(script)] if script.exists() and not module else [sys.executable, "-m", "coopsat.cli"]
 
 
 def timed(argv, env, workdir):
@@ -56,7 +53,7 @@ def timed(argv, env, workdir):
     return elapsed
 
 
-def measure(args, repeats, cold, workdir):
+def measure(args, repeats, cold, workdir, module=False):
     """Wall times of ``repeats`` runs of ``coopsat args`` (each in a new run folder)."""
     env = dict(os.environ)
     warm_cache = Path(workdir) / "warm-cache"
@@ -64,7 +61,7 @@ def measure(args, repeats, cold, workdir):
     for k in range(repeats + (0 if cold else 1)):
         cache = Path(workdir) / f"cold-cache-{k}" if cold else warm_cache
         env["COOPSAT_JAX_CACHE"] = str(cache)
-        argv = _coopsat() + [a.format(out=Path(workdir) / f"run-{k}") for a in args]
+        argv = _coopsat(module) + [a.format(out=Path(workdir) / f"run-{k}") for a in args]
         elapsed = timed(argv, env, workdir)
         if cold:
             shutil.rmtree(cache, ignore_errors=True)
@@ -113,14 +110,12 @@ def main():
     parser.add_argument("--module", action="store_true",
                         help="time python -m coopsat.cli (another checkout through PYTHONPATH, say), not the script")
     args = parser.parse_args()
-    global MODULE
-    MODULE = args.module
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"coopsat latency, {os.cpu_count()} cores, load average {load:.2f} at start")
     print(f"{'command':<50} {'median s':>9} {'range s':>13} {'target s':>9}")
     with tempfile.TemporaryDirectory(prefix="coopsat-latency-") as workdir:
         for label, argv, target, cold in COMMANDS:
-            times = measure(argv, args.cold_repeats if cold else args.repeats, cold, workdir)
+            times = measure(argv, args.cold_repeats if cold else args.repeats, cold, workdir, args.module)
             verdict = "met" if statistics.median(times) <= target else "NOT met"
             print(f"{label:<50} {statistics.median(times):>9.2f} {min(times):>6.2f}–{max(times):<6.2f} {target:>9.1f}  {verdict}",
                   flush=True)

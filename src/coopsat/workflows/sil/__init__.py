@@ -6,6 +6,8 @@ spacecraft's part of the controller. They speak the versioned message format of
 :mod:`~coopsat.workflows.sil.protocol` over ZeroMQ.
 
 * :mod:`~coopsat.workflows.sil.protocol`: the messages, their version, their encoding;
+* :mod:`~coopsat.workflows.sil.schema`: the schema of a flight software's replies, and the
+  check every message from it passes (and :class:`SILError`, the one error of a SIL run);
 * :mod:`~coopsat.workflows.sil.fsw`: coopsat's own flight-software host
   (``python -m coopsat.workflows.sil.fsw``);
 * :mod:`~coopsat.workflows.sil.processes`: starting, pausing, killing and reaping the

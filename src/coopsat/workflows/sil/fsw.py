@@ -55,17 +55,17 @@ class OneSpacecraft:
 
     def outbox(self, y):
         """This period's broadcast from the readings ``y`` (``{quantity: (k,)}``), kept for
-        :meth:`step`."""
+        :meth:`step`; float64, as the protocol's schema says every number is."""
         import numpy as np
 
         self.y = {q: np.asarray(v, np.float64) for q, v in y.items()}
-        return {k: np.asarray(v) for k, v in self._outbox(self.part, self.i, self.y, self.state).items()}
+        return {k: np.asarray(v, np.float64) for k, v in self._outbox(self.part, self.i, self.y, self.state).items()}
 
     def step(self, t, msg, weight, key, own=None):
         """This period's commands and record from the messages on the links addressed to it
         (``msg``: ``{name: (k, m)}``, ``weight``: (m,)), its key (uint32 (2,)) and, for a part
         that ``reads_own``, its own outbox of the instant each message was sent (``own``, as
-        ``msg``)."""
+        ``msg``). Both float64, as the protocol's schema says every number is."""
         import numpy as np
 
         msg = {k: np.asarray(v, np.float64) for k, v in msg.items()}
@@ -73,7 +73,8 @@ class OneSpacecraft:
         commands, self.state, record = self._step(self.part, self.i, np.float64(t), self.y, msg,
                                                   np.asarray(weight, np.float64), self.state,
                                                   np.asarray(key, np.uint32), self.dst, self.mine, own)
-        return {k: np.asarray(v) for k, v in commands.items()}, {k: np.asarray(v) for k, v in record.items()}
+        return ({k: np.asarray(v, np.float64) for k, v in commands.items()},
+                {k: np.asarray(v, np.float64) for k, v in record.items()})
 
     def warm_up(self, reads):
         """Compile both functions once on zeros (``reads``: ``{quantity: shape}``), leaving the

@@ -45,8 +45,7 @@ from coopsat.sim.period import (_KEY_CONTROLLER, _KEY_NETWORK, _account, _actuat
                                 _truth)
 from coopsat.sim.programs import _initial_parts, _means
 from coopsat.workflows import interrupt
-from coopsat.workflows.sil import protocol
-from coopsat.workflows.sil.processes import SILError
+from coopsat.workflows.sil import protocol, schema
 
 
 @dataclass
@@ -160,8 +159,10 @@ _interval_means = jax.jit(lambda system, before, after: _means(system, before, a
                                                                 system.period_s * system.structure.periods_per_record))
 
 
-def setup_messages(built, system, controller, y0):
-    """Each spacecraft's ``setup`` message (protocol version 1; docs/sil.md)."""
+def setup_messages(built, system, controller, y0, replies):
+    """Each spacecraft's ``setup`` message (protocol version 1; docs/sil.md); ``replies``: the
+    schema of its replies (:func:`~coopsat.workflows.sil.schema.replies_schema`), which the
+    simulator holds it to."""
     names = list(built.names)
     dst = np.asarray(system.network.dst).reshape(-1)
     src = np.asarray(system.network.src).reshape(-1)
@@ -170,7 +171,8 @@ def setup_messages(built, system, controller, y0):
     common = {
         "type": protocol.SETUP, "version": protocol.VERSION, "names": names,
         "period_s": float(system.period_s), "reads": {q: list(np.shape(y0[q])[:-1]) for q in controller.reads},
-        "commands": list(controller.commands), "controller": table, "part": part,
+        "commands": list(replies[protocol.COMMAND]["commands"]), "replies": replies, "controller": table,
+        "part": part,
     }
     messages = {}
     for i, name in enumerate(names):
@@ -195,10 +197,6 @@ def _schedule(faults, period_s):
     return sorted(plan, key=lambda row: row[0])
 
 
-def _shapes(shapes):
-    return "{" + ", ".join(f"{k}: {list(v)}" for k, v in sorted(shapes.items())) + "}"
-
-
 def blank_outbox(controller, y0, n):
     """Spacecraft 0's broadcast as the law makes it, in zeros: ``{name: (k,)}`` (its shapes,
     found without running the law)."""
@@ -216,25 +214,13 @@ class _Silence:
         self.names = names
         self.hold_commands = hold_commands
         self.blank = blank  # a broadcast of zeros: a spacecraft silent before its first one
-        self.shapes = {k: v.shape for k, v in blank.items()}
         self.msg, self.cmd, self.record = {}, {}, {}
 
     def outbox(self, replies):
-        """``{name: (k, n)}``: each spacecraft's broadcast, or its last one when silent.
-
-        Raises
-        ------
-        SILError
-            A broadcast whose fields or shapes are not the law's (an external flight software's
-            mistake).
-        """
+        """``{name: (k, n)}``: each spacecraft's broadcast (``replies``: the ``outbox`` replies,
+        checked against the schema), or its last one when silent."""
         for name, r in replies.items():
-            msg = {k: np.asarray(v, np.float64) for k, v in r["msg"].items()}
-            shapes = {k: v.shape for k, v in msg.items()}
-            if shapes != self.shapes:
-                raise SILError(f"{name}'s flight software broadcast {_shapes(shapes)}; the law broadcasts "
-                               f"{_shapes(self.shapes)}")
-            self.msg[name] = msg
+            self.msg[name] = {k: np.asarray(v, np.float64) for k, v in r["msg"].items()}
         return {k: np.stack([self.msg.get(n, self.blank)[k] for n in self.names], axis=-1) for k in self.blank}
 
     def commands(self, replies, shapes, record_specs, late=frozenset()):
@@ -300,6 +286,8 @@ class _Loop:
         self.record_specs = {k: (recorded[k][1:] if spec.per_spacecraft else recorded[k], spec.per_spacecraft)
                              for k, spec in controller.output_specs().items()}
         self.command_shapes = {c: (3,) for c in controller.commands}
+        self.replies = schema.replies_schema({k: v.shape for k, v in blank.items()}, self.command_shapes,
+                                             {k: shape for k, (shape, _) in self.record_specs.items()})
         self.silence = _Silence(self.names, hold_commands, blank)
         self.net_state = None
         self.timing = Timing()
@@ -390,7 +378,7 @@ def run_loop(built, system, fleet, controller, n_records, *, handshake_s, faults
     loop = _Loop(built, system, fleet, controller, hold_commands, blank_outbox(controller, y0, len(built.names)))
     view, ppr = loop.view, system.structure.periods_per_record
     period_s = float(system.period_s)
-    fleet.handshake(setup_messages(built, system, controller, y0), handshake_s)
+    fleet.handshake(setup_messages(built, system, controller, y0, loop.replies), handshake_s)
     plan, events, chunks = _schedule(faults, period_s), Events(), []
     begun = _begin(view, x, st, tick, loop.reads)
     t0, compile_s = time.perf_counter(), 0.0

@@ -13,6 +13,9 @@ Nothing is left in the file system either: each process's output goes to an anon
 private folder of the IPC socket is removed once every process has connected (the end of the
 handshake; connections outlive the name), so a simulator killed outright after its start-up
 leaves no file behind.
+
+Every message a process sends passes :mod:`~coopsat.workflows.sil.schema`'s check before it is
+used: anything else ends the run in one line naming the process and the field.
 """
 
 import atexit
@@ -26,9 +29,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from coopsat.scenarios.load import ScenarioError
 from coopsat.workflows import interrupt
-from coopsat.workflows.sil import protocol
+from coopsat.workflows.sil import protocol, schema
+from coopsat.workflows.sil.schema import SILError
 
 POLL_SLICE_MS = 100
 """Longest time one poll blocks before the waits check for a stop request and dead processes."""
@@ -47,12 +50,6 @@ _LAUNCHER = (
     "os.execvp(sys.argv[1], sys.argv[1:])\n"
 )
 """Runs in the child before it becomes the flight software: die with the simulator."""
-
-
-class SILError(ScenarioError):
-    """A SIL run that cannot start or go on: bad input, or a flight-software process that did
-    not start, did not answer in time or broke the protocol (one line; the command line's
-    bad-input status, 2, as every ScenarioError)."""
 
 
 def builtin_command():
@@ -79,6 +76,7 @@ class Fleet:
         self.procs = {}
         self.identity = {}  # name -> the ZeroMQ routing id its hello came from
         self._name = {}  # and back
+        self._schema = {}  # name -> the schema of its replies, as its setup told it (schema.replies_schema)
         self.paused = set()
         self.killed = set()
         self._since = {}  # name -> since when it has been awaited without a word from it (time.monotonic())
@@ -113,7 +111,8 @@ class Fleet:
         return {name: p.pid for name, p in self.procs.items()}
 
     def handshake(self, setups, timeout_s):
-        """Answer each process's ``hello`` with its ``setup`` and wait for its ``ready``.
+        """Answer each process's ``hello`` with its ``setup`` and wait for its ``ready``; its
+        later replies are checked against the schema its ``setup`` carries (``replies``).
 
         Parameters
         ----------
@@ -121,6 +120,12 @@ class Fleet:
             Each spacecraft's ``setup`` message.
         timeout_s : float
             Longest wait for the whole handshake, s.
+
+        Raises
+        ------
+        SILError
+            A process that exits, does not answer in time or sends anything but its ``hello``,
+            then its ``ready`` (:mod:`~coopsat.workflows.sil.schema`).
         """
         deadline = time.monotonic() + timeout_s
         ready = set()
@@ -132,26 +137,20 @@ class Fleet:
             if got is None:
                 continue
             identity, message = got
-            kind = message["type"]
-            if kind == protocol.HELLO:
-                name = message.get("name")
-                if name not in self.procs or name in self.identity:
-                    raise SILError(f"a flight-software process said hello as {name!r}, which is not a spacecraft waiting "
-                                   f"for one (expected one of {', '.join(waiting)})")
-                if message.get("version") != protocol.VERSION:
-                    raise SILError(f"{name}'s flight software speaks SIL protocol version {message.get('version')!r}; "
-                                   f"this simulator speaks {protocol.VERSION}")
-                self.identity[name], self._name[identity] = identity, name
-                self._send(name, setups[name])
-            elif kind == protocol.READY:
-                ready.add(self._name_of(identity))
+            if identity in self._name:
+                schema.check_ready(self._name[identity], message)
+                ready.add(self._name[identity])
             else:
-                raise SILError(f"{self._name_of(identity)}'s flight software sent '{kind}' during the handshake")
+                name = schema.check_hello(message, [n for n in self.names if n not in self.identity])
+                self.identity[name], self._name[identity] = identity, name
+                self._schema[name] = setups[name]["replies"]
+                self._send(name, setups[name])
         shutil.rmtree(self._dir, ignore_errors=True)  # every process is connected: the socket's name is not needed
 
     def exchange(self, messages, answer, k, due=None):
         """Send each named process its message and collect each one's answer of type
-        ``answer`` for period ``k``; returns ``{name: message}``.
+        ``answer`` for period ``k``; returns ``{name: reply}``, each checked against its schema,
+        its arrays float64 ndarrays (:func:`~coopsat.workflows.sil.schema.check_reply`).
 
         Parameters
         ----------
@@ -164,6 +163,12 @@ class Fleet:
             A process from which nothing at all (not even a late answer) has come for
             ``answer_s`` is hung: an error, as in lockstep (``due`` None), where every answer
             is awaited up to ``answer_s``.
+
+        Raises
+        ------
+        SILError
+            A process that exits, hangs or sends a message that is not a well-formed reply in
+            its turn (one line naming it and the field).
         """
         start = time.monotonic()
         for name, message in messages.items():
@@ -179,9 +184,10 @@ class Fleet:
             if got is None:
                 continue
             identity, message = got
-            if message.get("k") != k or message["type"] != answer:
-                continue  # a late answer to an earlier period (a process paused or late mid-answer)
-            replies[self._name_of(identity)] = message
+            name = self._name_of(identity)
+            reply = schema.check_reply(name, message, answer, k, self._schema[name], name in waiting)
+            if reply is not None:  # else a late answer (a process paused or late mid-answer): discarded
+                replies[name] = reply
         return replies
 
     def _send(self, name, message):
@@ -207,13 +213,7 @@ class Fleet:
         if self._poller.poll(slice_ms):
             identity, frame = self._sock.recv_multipart()
             self._since.pop(self._name.get(identity), None)  # alive
-            try:
-                message = protocol.decode(frame)
-            except ValueError as err:
-                raise SILError(f"{self._name_of(identity)}'s flight software: {err}") from None
-            if message["type"] == protocol.ERROR:
-                raise SILError(f"{self._name_of(identity)}'s flight software failed: {message.get('message', '')}")
-            return identity, message
+            return identity, schema.read(self._name.get(identity), frame)
         interrupt.check()  # a Ctrl-C at the terminal reaches the flight software too: a stop, not a crash
         for name in waiting:
             code = self.procs[name].poll()
@@ -288,9 +288,14 @@ def _status(code):
 
 
 def external_command(text, name):
-    """An ``--external`` command line as argv (no shell: nothing between the simulator and
-    the process it must be able to kill)."""
-    argv = shlex.split(text)
+    """An ``--external`` command line as argv: split as a POSIX shell splits words (quotes and
+    backslashes), but with no shell (no expansion, redirection or pipe: nothing between the
+    simulator and the process it must be able to kill); the program is looked up on ``PATH``
+    unless it names a path (docs/sil.md, "External flight software")."""
+    try:
+        argv = shlex.split(text)
+    except ValueError as err:  # an unclosed quote
+        raise SILError(f"--external {name}: {err} in {text!r}") from None
     if not argv:
         raise SILError(f"--external {name}: empty command")
     if shutil.which(argv[0]) is None:

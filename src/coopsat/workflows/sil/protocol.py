@@ -11,7 +11,9 @@ message on the socket that said it.
 Per control period ``k`` the simulator sends ``sense`` (the spacecraft's own readings) and
 waits for ``outbox`` (its broadcast), then, once the network has delivered every broadcast,
 sends ``inbox`` (the links addressed to it) and waits for ``command``. Every message after
-``setup`` carries ``k``; an answer for another period is discarded.
+``setup`` carries ``k``; an answer to an earlier period is discarded, and anything else out of
+turn or out of shape ends the run (:mod:`~coopsat.workflows.sil.schema`, which also holds the
+schema of the replies that ``setup`` tells each process).
 
 This module depends on msgpack only: the external example (examples/sil-external/law3.py)
 restates it without importing coopsat.
@@ -46,7 +48,7 @@ def decode(frame):
     try:
         message = msgpack.unpackb(frame, raw=False)
     except Exception as err:  # msgpack's several exception types: one meaning here
-        raise ValueError(f"not a message of the SIL protocol ({err})") from None
+        raise ValueError(f"not a message of the SIL protocol (msgpack: {str(err) or type(err).__name__})") from None
     if not isinstance(message, dict) or not isinstance(message.get("type"), str):
         raise ValueError("not a message of the SIL protocol (a map with a 'type')")
     return message

@@ -27,6 +27,7 @@ OPTIONS = (
                             "help": "longest wait for every process to start and answer the handshake (default 120 s)"}),
     (("--no-figures",), {"action": "store_true", "help": "skip the PNG figures"}),
     (("--no-report",), {"action": "store_true", "help": "skip report.html (the interactive report)"}),
-    (("--quiet", "-q"), {"action": "store_true", "help": "no metrics on stdout"}),
+    (("--quiet", "-q"), {"action": "store_true",
+                         "help": "print only warnings and errors (no process ids, events, folder line or metrics)"}),
 )
 """``(flags, add_argument keywords)`` of each option, in the order ``--help`` lists them."""

@@ -90,8 +90,9 @@ def parse_externals(assignments):
 
 def sil_command(args, out, err):
     """``coopsat sil``: run, write the folder, report; ``args`` the parsed options
-    (:mod:`~coopsat.workflows.sil.options`), ``out``/``err`` print a line to stdout/stderr.
-    Returns the exit status (0)."""
+    (:mod:`~coopsat.workflows.sil.options`), ``out``/``err`` print a line to stdout/stderr
+    (with ``--quiet`` only warnings: errors are the caller's to print). Returns the exit
+    status (0)."""
     import jax
 
     from coopsat.workflows.pipeline import check_run_folder, summary_lines
@@ -100,20 +101,22 @@ def sil_command(args, out, err):
     # before JAX's CPU client starts; the command's process is coopsat's own).
     jax.config.update("jax_cpu_enable_async_dispatch", False)
     check_run_folder(args.out)
+    on_start = None if args.quiet else (
+        lambda pids: err("sil: flight software " + ", ".join(f"{n} pid {p}" for n, p in pids.items())))
     result = sil(args.scenario, overrides=args.set, kill=args.kill, pause=args.pause,
                  externals=parse_externals(args.external), fault_command=args.fault_command, realtime=args.realtime,
                  answer_s=args.answer_timeout, handshake_s=args.start_timeout,
-                 on_warning=lambda note: err(f"warning: {note}"),
-                 on_start=lambda pids: err("sil: flight software " + ", ".join(f"{n} pid {p}" for n, p in pids.items())))
+                 on_warning=lambda note: err(f"warning: {note}"), on_start=on_start)
     result.save(args.out, figures=not args.no_figures, report=not args.no_report)
+    if args.quiet:
+        return 0
     out(f"wrote {args.out}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
     for e in json.loads(result.dataset.attrs["sil_events"]):
         out(f"  sil: {e['spacecraft']} {e['event']} at t = {e['t_s']:g} s")
     if "sil_deadline_misses" in result.dataset:
         out("  sil: " + realtime_line(result.dataset))
-    if not args.quiet:
-        for line in summary_lines(_Summary(result, args.out)):
-            out(line)
+    for line in summary_lines(_Summary(result, args.out)):
+        out(line)
     return 0
 
 

@@ -42,6 +42,8 @@ _PUBLIC = {
     "campaign": "coopsat.api",
     "export": "coopsat.api",
     "ExportError": "coopsat.exports.run",
+    "StageError": "coopsat.analysis.stages",
+    "StageFailure": "coopsat.analysis.stages",
 }
 _SUBPACKAGES = ("design", "network", "plugins")
 
@@ -67,6 +69,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazi
         tune,
         validate,
     )
+    from coopsat.analysis.stages import StageError, StageFailure
     from coopsat.exports.run import ExportError
     from coopsat.workflows.pipeline import Result
     from coopsat.scenarios.document import Scenario

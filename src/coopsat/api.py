@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from coopsat.workflows.pipeline import Result, analyse, prepare
+from coopsat.analysis.stages import StageError
+from coopsat.workflows.pipeline import Result, analyse, prepare, save_run
 from coopsat.workflows.pipeline import run as _run_one
 from coopsat.scenarios.document import Scenario
 
@@ -90,7 +91,7 @@ def validate(scenario: ScenarioLike) -> Validation:
     ScenarioError
         One line naming the field or the cause.
     """
-    from coopsat.workflows.pipeline import estimated_run_s
+    from coopsat.scenarios.run_length import estimated_run_s
 
     doc = _document(scenario)
     built = prepare(doc.model)
@@ -127,10 +128,22 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
     Result
         ``dataset`` (xarray), ``metrics``, ``comparison``, ``checks``, ``save(dir)``,
         ``figures()``.
+
+    Raises
+    ------
+    StageError
+        A stage after the simulation raised (a plug-in's metrics, figures, the report): its
+        ``.result`` holds the record and whatever else was computed, and with ``out_dir`` the
+        folder is written (``.out_dir``).
     """
-    result = _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long, native=native)
+    try:
+        result = _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long, native=native)
+    except StageError as err:
+        if out_dir is None:
+            raise
+        save_run(err.result, out_dir, figures=figures, report=report)  # raises StageError naming the folder
     if out_dir is not None:
-        result.save(out_dir, figures=figures, report=report)
+        save_run(result, out_dir, figures=figures, report=report)
     return result
 
 

@@ -2,7 +2,9 @@
 
 Parses arguments and calls the pipeline's stages; nothing else. Bad input (a wrong scenario,
 a graph that cannot do what is asked, a state that turns non-finite) prints one line on stderr
-and exits with status 2, without a traceback and without leaving a half-written run folder.
+and exits with status 2, without a traceback and without leaving a half-written run folder. A
+stage after the simulation that fails (a plug-in's metrics, the figures, the report) prints one
+line naming it and exits with status 3, its run folder written without what that stage makes.
 """
 
 import argparse
@@ -13,6 +15,7 @@ import threading
 import warnings
 
 EXIT_BAD_INPUT = 2
+EXIT_STAGE_FAILED = 3
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 EXIT_BROKEN_PIPE = 141
@@ -112,14 +115,14 @@ def _print(lines):
 
 
 def _cmd_run(args):
-    from coopsat.workflows.pipeline import run_scenario, summary_lines
+    from coopsat.workflows.pipeline import REPORT_FILE, run_scenario, summary_lines
 
     result = run_scenario(
         args.scenario,
         out_dir=args.out,
         overrides=args.set,
         progress=not args.quiet,
-        figures=not args.no_figures,
+        figures=bool(args.figures),
         on_warning=lambda note: print(f"warning: {note}", file=sys.stderr),
         allow_long=args.allow_long,
         report=not args.no_report,
@@ -127,6 +130,8 @@ def _cmd_run(args):
     print(f"wrote {result.out_dir}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
     if not args.quiet:
         _print(summary_lines(result))
+    if not args.no_report:  # the last line: where to look
+        print(f"report: {result.out_dir / REPORT_FILE}")
     return 0
 
 
@@ -191,16 +196,9 @@ def _cmd_topology(args):
 
 
 def _cmd_tradeoff(args):
-    from coopsat.workflows.deep_space_tradeoff import DEFAULT_SCALES_N, TradeoffError, run_tradeoff, summary_lines
+    from coopsat.workflows.deep_space_tradeoff import parse_options, run_tradeoff, summary_lines
 
-    try:
-        scales = [float(v) for v in args.scales.split(",")] if args.scales else list(DEFAULT_SCALES_N)
-    except ValueError:
-        raise TradeoffError(f"--scales {args.scales}: give comma-separated force scales in N, e.g. 0.01,0.1,1") from None
-    coords = tuple(args.coordinates.split(","))
-    bad = [c for c in coords if c not in ("hub", "orthonormal")]
-    if bad:
-        raise TradeoffError(f"--coordinates: unknown {bad} (known: hub, orthonormal)")
+    scales, coords = parse_options(args.scales, args.coordinates)
     out = args.out or "runs/tradeoff"
     report = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     rows, comparisons, compile_s, run_s = run_tradeoff(args.scenarios, out, scales, coords, progress=not args.quiet,
@@ -333,7 +331,7 @@ def _add_run(sub):
     run.add_argument("scenario", help="bundled scenario name or path to a .toml file")
     run.add_argument("--out", help="run folder (default runs/<scenario name>)")
     _set_option(run)
-    run.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    run.add_argument("--figures", action=argparse.BooleanOptionalAction, help="also draw the PNG figures (or: coopsat plot)")
     run.add_argument("--no-report", action="store_true", help="skip report.html (the interactive report)")
     run.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no metrics on stdout")
     run.add_argument("--allow-long", action="store_true", help="run even when the estimated wall time is above 30 min")
@@ -557,6 +555,7 @@ def main(argv=None):
     the loop, between stages, right before its folder is renamed into place) and its last line
     says either "nothing written" or which folder is complete (:mod:`coopsat.workflows.interrupt`).
     """
+    from coopsat.analysis.stages import StageError
     from coopsat.workflows import interrupt
 
     args = build_parser().parse_args(argv)
@@ -571,6 +570,9 @@ def main(argv=None):
     except _input_errors() as err:
         print(f"coopsat: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except StageError as err:
+        print(f"coopsat: error: {err}", file=sys.stderr)
+        return EXIT_STAGE_FAILED
     except (KeyboardInterrupt, interrupt.Interrupted) as err:
         stop = getattr(err, "signum", signal.SIGINT)
     except BrokenPipeError:

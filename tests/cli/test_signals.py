@@ -60,7 +60,7 @@ def listing(folder):
 def reference(tmp_path_factory):
     """The run folder written without a signal, without and with figures."""
     base = tmp_path_factory.mktemp("reference")
-    for name, extra in (("plain", ["--no-figures"]), ("figures", [])):
+    for name, extra in (("plain", []), ("figures", ["--figures"])):
         assert main([*RUN, "--out", str(base / name), "-q", *extra]) == 0
     return base
 
@@ -106,7 +106,7 @@ BEFORE_RENAME = ["load", "build", "compile", "simulate", "metrics", "write-resul
 def test_a_signal_before_the_rename_leaves_nothing(phase, sig, tmp_path, capsys, monkeypatch):
     parent = tmp_path / "runs"
     signal_on_entry(monkeypatch, *_phase(phase), sig)
-    figures = [] if phase == "write-figures" else ["--no-figures"]
+    figures = ["--figures"] if phase == "write-figures" else []
     line = stopped(capsys, [*RUN, "--out", parent / "r", "-q", *figures], sig)
     assert_nothing_written(line, parent, sig)
 
@@ -117,7 +117,7 @@ def test_a_stop_while_the_record_is_written_does_not_wait_for_the_figures(tmp_pa
     drawn = []
     monkeypatch.setattr(coopsat.plots.figures, "save_figures", lambda *args, **kwargs: drawn.append(args))
     signal_on_entry(monkeypatch, xr.Dataset, "to_netcdf", signal.SIGINT)
-    line = stopped(capsys, [*RUN, "--out", tmp_path / "runs" / "r", "-q"], signal.SIGINT)
+    line = stopped(capsys, [*RUN, "--out", tmp_path / "runs" / "r", "-q", "--figures"], signal.SIGINT)
     assert_nothing_written(line, tmp_path / "runs", signal.SIGINT)
     assert drawn == []
 
@@ -201,7 +201,7 @@ def test_sigint_from_outside_while_the_folder_is_written(tmp_path, reference):
     parent = tmp_path / "runs"
     parent.mkdir()
     out = parent / "r"
-    proc = subprocess.Popen([sys.executable, "-m", "coopsat.cli", *RUN, "--out", str(out), "-q"],
+    proc = subprocess.Popen([sys.executable, "-m", "coopsat.cli", *RUN, "--out", str(out), "-q", "--figures"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 240
     while not any(p.name.startswith(".r.") for p in parent.iterdir()):  # the temporary sibling

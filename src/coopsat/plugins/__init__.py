@@ -40,6 +40,7 @@ import importlib
 import sys
 from dataclasses import dataclass, field, replace
 
+from coopsat.core.errors import one_line
 from coopsat.plugins.protocols import (
     Actuator,
     Builder,
@@ -278,8 +279,9 @@ def register(plugin):
     Raises
     ------
     PluginError
-        An unknown role, a role and kind registered already (the message names both), or a
-        registration after the registry was read.
+        An unknown role, a role and kind registered already (the message names both), a
+        registration after the registry was read, or a malformed member (a table that is not a
+        ``Table``, a build that cannot be called, an analysis that is not a module name…).
     """
     if _state == "unloaded":
         _load()
@@ -299,14 +301,37 @@ def register(plugin):
             f"(scenarios are validated against the kinds registered then): declare the module as a "
             f"{ENTRY_POINT_GROUP} entry point, or import it before loading any scenario"
         )
+    problem = _member_problem(plugin)
+    if problem is not None:
+        raise PluginError(f"plug-in {plugin.role} '{plugin.kind}' of {origin}: {problem}")
     plugin = replace(plugin, origin=origin)
     _REGISTRY[plugin.role][plugin.kind] = plugin
     return plugin
 
 
-def _one_line(err):
-    text = "; ".join(line.strip() for line in str(err).splitlines() if line.strip())
-    return f"{type(err).__name__}: {text}" if text else type(err).__name__
+def _is_table(value):
+    from pydantic import BaseModel
+
+    return isinstance(value, type) and issubclass(value, BaseModel)
+
+
+def _member_problem(plugin):
+    """What is wrong with a :class:`Plugin`'s members, in a few words (None when nothing is):
+    checked at registration, so that a malformed plug-in fails before any scenario runs."""
+    if not _is_table(plugin.table) or "kind" not in plugin.table.model_fields:
+        return "table must be a coopsat.plugins.Table subclass with a 'kind' field"
+    if not callable(plugin.build):
+        return "build must be a function (table, ctx) -> part"
+    if not isinstance(plugin.checks, (tuple, list)) or not all(callable(c) for c in plugin.checks):
+        return "checks must be a tuple of functions (table, ctx) -> DesignCheck or None"
+    if plugin.analysis is not None and not (isinstance(plugin.analysis, str)
+                                            and all(p.isidentifier() for p in plugin.analysis.split("."))):
+        return f"analysis must be the name of a module, not {plugin.analysis!r}"
+    if plugin.tunables is not None and not callable(plugin.tunables):
+        return "tunables must be a function (table, ctx, part) -> dict of name -> Tunable"
+    if plugin.thresholds is not None and not _is_table(plugin.thresholds):
+        return "thresholds must be a coopsat.plugins.Table subclass"
+    return None
 
 
 def _entry_points():
@@ -336,7 +361,7 @@ def _load_entry_point(dist, ep):
     except PluginError as err:  # a clash with a kind registered already, an unknown role: names both
         failure = str(err)
     except Exception as err:  # noqa: BLE001 (any error of a foreign module: reported in one line)
-        failure = f"{where} failed to import: {_one_line(err)}"
+        failure = f"{where} failed to import: {one_line(err)}"
     else:
         failure = None
     finally:

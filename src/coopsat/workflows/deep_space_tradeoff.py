@@ -245,6 +245,26 @@ def comparison_markdown(rows, comparisons):
     return "\n".join(lines) + "\n"
 
 
+def parse_options(scales, coordinates):
+    """``coopsat tradeoff``'s ``--scales`` and ``--coordinates`` (comma-separated text; scales
+    None: :data:`DEFAULT_SCALES_N`) as ``(scales_n, coordinates)``.
+
+    Raises
+    ------
+    TradeoffError
+        A scale that is not a number, or an unknown coordinate system.
+    """
+    try:
+        scales_n = [float(v) for v in scales.split(",")] if scales else list(DEFAULT_SCALES_N)
+    except ValueError:
+        raise TradeoffError(f"--scales {scales}: give comma-separated force scales in N, e.g. 0.01,0.1,1") from None
+    coords = tuple(coordinates.split(","))
+    bad = [c for c in coords if c not in ("hub", "orthonormal")]
+    if bad:
+        raise TradeoffError(f"--coordinates: unknown {bad} (known: hub, orthonormal)")
+    return scales_n, coords
+
+
 def run_tradeoff(refs, out_dir, scales_n=DEFAULT_SCALES_N, coordinates=("hub", "orthonormal"), progress=False, figures=True,
                  tune_fuel=False, tune_iter=100, report=None):
     """Sweep every scenario in every coordinates, compare, and write the folder.

@@ -7,7 +7,7 @@ so a failed run (bad input, non-finite state) leaves nothing half-written.
 import importlib
 import json
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -17,9 +17,11 @@ import coopsat
 from coopsat.workflows import interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import attitude_moves, run_metrics
-from coopsat.analysis.papers import explainers, paper_metrics, paper_modules, paper_series
+from coopsat.analysis.papers import explainers, member, paper_metrics, paper_modules, paper_series
+from coopsat.analysis.stages import StageError, guarded
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
+from coopsat.scenarios.run_length import check_run_length
 from coopsat.scenarios.load import ScenarioError, resolved_toml
 
 
@@ -61,19 +63,26 @@ class Result:
     built: object = field(default=None, repr=False, compare=False)
     """The built run (:class:`coopsat.scenarios.build.Built`): the compiled system's parts, for
     figures and further analysis."""
+    failures: tuple = ()
+    """The stages after the simulation that raised (:class:`~coopsat.analysis.stages.StageFailure`),
+    their numbers missing from ``metrics``/``comparison`` (:func:`run` raises
+    :class:`~coopsat.analysis.stages.StageError` with this result)."""
 
-    def save(self, out_dir, *, figures=True, report=True):
+    def save(self, out_dir, *, figures=False, report=True):
         """Write the run folder ``coopsat run`` writes (result.nc, metrics.json,
-        comparison.{md,json}, figures, report.html, run.json), atomically; returns its path.
+        comparison.{md,json}, report.html, run.json; the PNG figures when ``figures``),
+        atomically; returns its path.
 
         An existing folder is replaced only if it is a run folder (it holds ``run.json``).
 
         Raises
         ------
         RunFolderError
+        StageError
+            The figures or the report raised: the folder is written without them, and the error
+            names the stage and the plug-in (``.out_dir``, ``.failures``).
         """
-        return write_run_folder(Path(out_dir), self.built, self.dataset, self.metrics, self.comparison, figures=figures,
-                                report=report)
+        return save_run(replace(self, failures=()), out_dir, figures=figures, report=report)
 
     def report_html(self):
         """The interactive report page (``report.html``) of this run, as text."""
@@ -112,7 +121,8 @@ class RunResult:
 
 
 def prepare(scenario, check_published=True):
-    """Build a validated scenario; its design-time warnings are in ``built.warnings``.
+    """Build a validated scenario; its design-time warnings are in ``built.warnings``. Its
+    plug-ins' analysis modules are imported and checked (:func:`coopsat.analysis.papers.paper_modules`).
 
     Also checks, before anything runs, that every ``[[published]]`` quantity names a metric
     this run will produce, unless ``check_published`` is False (a campaign's runs, which never
@@ -122,6 +132,7 @@ def prepare(scenario, check_published=True):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DesignWarning)  # returned in built.warnings instead
         built = build(scenario)
+    paper_modules(built)  # a malformed analysis module is an error now, not after the simulation
     if check_published and scenario.published:
         known = metric_names(built)
         for k, entry in enumerate(scenario.published):
@@ -170,26 +181,28 @@ def _metric_names(built):
     for k, spec in specs.items():
         if spec.dims == ("q_component",):
             samples[k][..., 0] = 1.0  # unit quaternions, so that attitude metrics are defined
-    ds = paper_series(to_dataset(RunOutput(np.array([0.0, 1.0]), samples, 0.0, 0.0), built.names, {}, specs), built)
+    ignored = []  # a plug-in that fails on the stand-in's zeros is reported by the real run, not here
+    ds = paper_series(to_dataset(RunOutput(np.array([0.0, 1.0]), samples, 0.0, 0.0), built.names, {}, specs), built, ignored)
     with np.errstate(all="ignore"):  # only the names count: the stand-in's zeros may divide 0 by 0
-        metrics, _ = analyse(built, ds, compare=False)
+        metrics, _ = analyse(built, ds, compare=False, failures=ignored)
     return set(metrics)
 
 
-def simulate_built(built, progress=False, native=None):
+def simulate_built(built, progress=False, native=None, failures=None):
     """Run a built scenario; returns (dataset, RunOutput). ``native``: as
-    :func:`coopsat.sim.engine.simulate`."""
+    :func:`coopsat.sim.engine.simulate`; ``failures``: as :func:`record_dataset`."""
     from coopsat.sim.engine import simulate
 
     out = simulate(built.system, built.n_records, built.record_interval_s, progress=progress, names=built.names,
                    cancel=interrupt.check, native=native)
-    return record_dataset(built, out), out
+    return record_dataset(built, out, failures=failures), out
 
 
-def record_dataset(built, out, **attrs):
+def record_dataset(built, out, failures=None, **attrs):
     """The run's record as a Dataset, from the engine's samples (a RunOutput): what ran, when,
     the design checks and the paper's series; ``attrs``: more global attributes (str, int or
-    float), after the standard ones."""
+    float), after the standard ones. A paper module whose series raise is appended to
+    ``failures`` (a list of :class:`~coopsat.analysis.stages.StageFailure`; None: it raises)."""
     from coopsat.sim.engine import output_specs
     from coopsat.sim.recorder import to_dataset
 
@@ -207,21 +220,28 @@ def record_dataset(built, out, **attrs):
     }
     for check in built.checks.values():
         attrs[f"check_{check.name}"] = check.note
-    return paper_series(to_dataset(out, built.names, attrs, output_specs(built.system)), built)
+    return paper_series(to_dataset(out, built.names, attrs, output_specs(built.system)), built, failures)
 
 
-def analyse(built, ds, compare=True):
-    """Metrics and comparison rows (empty unless ``compare``) of a finished run."""
+def analyse(built, ds, compare=True, failures=None):
+    """Metrics and comparison rows (empty unless ``compare``) of a finished run.
+
+    ``failures``: a list to which each stage that raises is appended as a
+    :class:`~coopsat.analysis.stages.StageFailure` (its numbers left out); None: it raises.
+    """
     sc = built.scenario
     inertia = np.stack([inertia_matrix(s.inertia_kgm2) for s in sc.spacecraft])
     h_wheels = np.array([s.h_wheels_b_nms for s in sc.spacecraft], dtype=float)
     # From the scenario's initial state, not the record's: metric_names' stand-in record is zeros.
     attitude = attitude_moves(ds, [s.omega_b_rad_s for s in sc.spacecraft], [s.angle_rad for s in sc.spacecraft])
-    metrics = {**built.design_metrics, **run_metrics(ds, built.names, inertia, h_wheels, attitude), **paper_metrics(ds, built)}
+    common = guarded(failures, "metrics", "coopsat", {}, run_metrics, ds, built.names, inertia, h_wheels, attitude)
+    metrics = {**built.design_metrics, **common, **paper_metrics(ds, built, failures)}
     if not compare:
         return metrics, []
     note = "; ".join(built.warnings) or None
-    return metrics, compare_published(sc.published, metrics, note, sc.sim.t_final_s, explainers(built))
+    rows = guarded(failures, "comparison", "coopsat", [], compare_published, sc.published, metrics, note,
+                   sc.sim.t_final_s, explainers(built, failures))
+    return metrics, rows
 
 
 RUN_MARKER = "run.json"
@@ -243,15 +263,19 @@ def check_run_folder(out_dir):
     check_folder(out_dir, RUN_MARKER, "coopsat run", RunFolderError)
 
 
-def write_run_folder(out_dir, built, ds, metrics, rows, figures=True, report=True):
-    """Write result.nc, metrics.json, comparison.{md,json}, figures, report.html and run.json,
-    atomically.
+def write_run_folder(out_dir, built, ds, metrics, rows, figures=False, report=True, failures=None):
+    """Write result.nc, metrics.json, comparison.{md,json}, report.html, run.json and, when
+    ``figures``, the PNG figures, atomically.
 
     Parameters
     ----------
     out_dir : Path
         Final folder; an existing run folder is replaced only once the new one is complete,
         anything else that exists there is refused (:func:`check_run_folder`).
+    failures : list, optional
+        The figures or report stage that raises is appended here
+        (:class:`~coopsat.analysis.stages.StageFailure`) and the folder is written without it;
+        None: it raises and nothing is written.
     """
     out_dir = Path(out_dir)
     check_run_folder(out_dir)
@@ -274,16 +298,27 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=True, report=Tru
             (tmp / "comparison.json").write_text(json.dumps(json_ready(rows), indent=2, allow_nan=False) + "\n")
             (tmp / "comparison.md").write_text(comparison_markdown(rows, built.scenario.name))
         if figures:
-            from coopsat.plots.figures import save_figures
-
             interrupt.check()  # the figures take seconds: a stop need not wait for them (nothing is written)
-            save_figures(run_figures(built, ds), tmp)
+            _save_figures(built, ds, tmp, failures)
         if report:
             from coopsat.reports import report_html
 
             interrupt.check()
-            (tmp / REPORT_FILE).write_text(report_html(built, ds, metrics, rows), encoding="utf-8")
+            page = guarded(failures, "report", "coopsat", None, report_html, built, ds, metrics, rows)
+            if page is not None:
+                (tmp / REPORT_FILE).write_text(page, encoding="utf-8")
     return out_dir
+
+
+def _save_figures(built, ds, folder, failures):
+    """Draw and save the run's figures into ``folder``: the standard ones, then each paper
+    module's, each set guarded on its own (:func:`~coopsat.analysis.stages.guarded`)."""
+    from coopsat.plots.figures import save_figures, standard_figures
+
+    sets = [("coopsat", lambda: standard_figures(ds, built.scenario.analysis))]
+    sets += [(source, lambda m=module: _module_figures(m, built, ds)) for source, module in _figure_modules(built)]
+    for source, draw in sets:
+        guarded(failures, "figures", source, None, lambda: save_figures(draw(), folder))
 
 
 REPORT_FILE = "report.html"
@@ -339,12 +374,25 @@ def run_figures(built, ds):
     return {**standard_figures(ds, built.scenario.analysis), **_paper_figures(built, ds)}
 
 
+def _figure_modules(built):
+    """``(source, analysis module)`` of each paper module of the run that names ``FIGURES``."""
+    from coopsat.analysis.papers import owners
+
+    named = owners(built)
+    return [(f"analysis module '{m.__name__}' of plug-in {named[m.__name__]}", m)
+            for m in paper_modules(built) if member(m, "FIGURES") is not None]
+
+
+def _module_figures(module, built, ds):
+    """One paper module's figures, keyed by file stem."""
+    return importlib.import_module(module.FIGURES).figures(ds, built)
+
+
 def _paper_figures(built, ds):
     """The figures of the run's papers, keyed by file stem."""
     figures = {}
-    for module in paper_modules(built):
-        if hasattr(module, "FIGURES"):
-            figures.update(importlib.import_module(module.FIGURES).figures(ds, built))
+    for _, module in _figure_modules(built):
+        figures.update(_module_figures(module, built, ds))
     return figures
 
 
@@ -394,45 +442,6 @@ def plot_run(run_dir, what=None, out=None):
     return save_figures(figures, run_dir if out is None else out)
 
 
-ENGINE_RATE_SC_STEPS_S = 2e6
-"""Spacecraft-steps per second assumed when estimating a run's wall time: the consensus loop's
-lower figure on the 2-core CPU machine of `coopsat bench` (README, Speed); pulsed actuators
-split ticks and count double."""
-
-LONG_RUN_S = 1800.0
-"""Estimated wall time above which a run needs ``allow_long`` (``--allow-long``), s."""
-
-
-class RunTooLongError(ScenarioError):
-    """A run whose estimated wall time is above :data:`LONG_RUN_S` and was not allowed."""
-
-
-def estimated_run_s(built):
-    """Rough wall time of the closed loop, s, from the run's size and the engine's speed."""
-    s = built.scenario
-    steps = s.sim.t_final_s / s.sim.dt_s * len(built.names) * s.sim.substeps
-    pulsed = any(getattr(a, "pulsed", False) for a in built.system.actuators)
-    return steps * (2.0 if pulsed else 1.0) / ENGINE_RATE_SC_STEPS_S
-
-
-def check_run_length(built, allow_long=False):
-    """Refuse, before anything runs, a run estimated to take longer than :data:`LONG_RUN_S`.
-
-    Raises
-    ------
-    RunTooLongError
-    """
-    estimate = estimated_run_s(built)
-    if estimate > LONG_RUN_S and not allow_long:
-        s = built.scenario
-        raise RunTooLongError(
-            f"sim: {s.sim.t_final_s / s.sim.dt_s:.3g} ticks of {len(built.names)} spacecraft would take about "
-            f"{estimate / 3600:.2g} h at ~{ENGINE_RATE_SC_STEPS_S / 1e6:g} M spacecraft-steps/s; shorten the run or "
-            "take a larger step, or pass --allow-long to run it anyway"
-        )
-    return estimate
-
-
 def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=None, native=None):
     """Run a scenario in memory: build, design checks, closed loop, metrics, comparison.
 
@@ -462,6 +471,11 @@ def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=Non
         A scenario that cannot be loaded, validated or built, or a run too long.
     coopsat.sim.engine.NonFiniteStateError
         The state turned NaN or infinite.
+    coopsat.plugins.PluginError
+        An analysis module that cannot be imported or has a malformed member (before the run).
+    StageError
+        A stage after the simulation (a paper's series, metrics, an explanation) raised: its
+        ``.result`` holds the record and everything else that was computed.
     """
     from coopsat.scenarios.document import Scenario as Document
 
@@ -474,10 +488,31 @@ def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=Non
         if on_warning is not None:
             on_warning(note)
     interrupt.check()
-    ds, out = simulate_built(built, progress=progress, native=native)
-    metrics, rows = analyse(built, ds)
+    failures = []
+    ds, out = simulate_built(built, progress=progress, native=native, failures=failures)
+    metrics, rows = analyse(built, ds, failures=failures)
     checks = {c.name: c for c in built.checks.values()}
-    return Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built)
+    result = Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built, tuple(failures))
+    if failures:
+        raise StageError(failures, result)
+    return result
+
+
+def save_run(result, out_dir, figures=False, report=True):
+    """Write a run's folder (:func:`write_run_folder`) whether or not its stages all succeeded.
+
+    Raises
+    ------
+    StageError
+        A stage failed, in the run (``result.failures``) or while writing (figures, report):
+        the folder holds the record and everything that was computed.
+    """
+    failures = list(result.failures)
+    write_run_folder(Path(out_dir), result.built, result.dataset, result.metrics, result.comparison, figures=figures,
+                     report=report, failures=failures)
+    if failures:
+        raise StageError(failures, replace(result, failures=tuple(failures)), Path(out_dir))
+    return Path(out_dir)
 
 
 def summary_lines(result):
@@ -494,7 +529,7 @@ def summary_lines(result):
     return lines
 
 
-def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, on_warning=None, allow_long=False,
+def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=False, on_warning=None, allow_long=False,
                  report=True):
     """Run a bundled scenario or scenario file and write its run folder (``coopsat run``).
 
@@ -509,7 +544,7 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
     progress : bool
         Progress bar for long runs.
     figures : bool
-        Write the PNG figures.
+        Draw the PNG figures too (``coopsat run --figures``; ``coopsat plot`` draws them later).
     on_warning : callable, optional
         Called with each design-time warning (one line) before the simulation starts.
     allow_long : bool
@@ -520,13 +555,22 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=True, 
     Returns
     -------
     RunResult
+
+    Raises
+    ------
+    StageError
+        A stage after the simulation raised: the folder is written with the record and every
+        other stage's output, and the error names the stage and the plug-in.
     """
     from coopsat.scenarios.document import with_overrides
 
     doc = with_overrides(ref, overrides)
     target = Path(out_dir) if out_dir is not None else Path("runs") / doc.name
     check_run_folder(target)
-    result = run(doc, progress=progress, allow_long=allow_long, on_warning=on_warning)
+    try:
+        result = run(doc, progress=progress, allow_long=allow_long, on_warning=on_warning)
+    except StageError as err:
+        result = err.result
     interrupt.check()
-    result.save(target, figures=figures, report=report)
+    save_run(result, target, figures=figures, report=report)
     return RunResult(target, result.dataset, result.metrics, result.comparison, result.warnings, result.compile_s, result.run_s)

@@ -1,48 +1,154 @@
-"""Paper analysis modules: each adds the metrics one source paper defines and its explanations
-of differences from the published numbers.
+"""Paper analysis modules: each adds the metrics one source paper (or one plug-in) defines and
+its explanations of differences from the published numbers.
 
-A plug-in names its paper's module (:attr:`coopsat.plugins.Plugin.analysis`); a run imports the
-modules of the plug-ins it uses. A module provides
+A plug-in names its analysis module (:attr:`coopsat.plugins.Plugin.analysis`); a run imports
+the modules of the plug-ins it uses. Every member of such a module is optional (:data:`MEMBERS`
+gives each one's type and its default when absent):
 
-* ``metrics(ds, built) -> dict`` — named numbers (unit at the end of each name);
-* ``EXPLAINERS`` — ``{metric name or "_suffix": (quantity, metrics) -> str or None}``;
-* optionally ``series(ds, built) -> {name: DataArray}`` — time series derived from the record
-  (truth errors…), added to the run's dataset before it is written;
-* optionally ``FIGURES`` — the name of a :mod:`coopsat.plots` module whose ``figures(ds,
-  built) -> {stem: Figure}`` draws the paper's figures (plots sit above analysis).
+* ``metrics(ds, built) -> dict`` — named numbers (unit at the end of each name); default none;
+* ``EXPLAINERS`` — ``{metric name or "_suffix": (quantity, metrics) -> str or None}``: why a
+  published number differs; default none;
+* ``series(ds, built) -> {name: DataArray}`` — time series derived from the record (truth
+  errors…), added to the run's dataset before it is written; default none;
+* ``FIGURES`` — the name of a module whose ``figures(ds, built) -> {stem: Figure}`` draws the
+  paper's figures (plots sit above analysis); default none;
+* ``PAIRED_SERIES`` — names of series ``coopsat pair`` compares over time; default none;
+* ``SURROGATES`` — ``{metric name: coopsat.analysis.surrogates.Surrogate}`` for ``coopsat
+  tune``; default none.
+
+A module is checked when a scenario that uses it is built, before any simulation
+(:func:`paper_modules`): one that cannot be imported, or whose member has the wrong type, is a
+one-line :class:`~coopsat.plugins.PluginError` naming the module, the member and the plug-in.
+After the simulation, each module's code runs under :func:`coopsat.analysis.stages.guarded`,
+so that one that raises costs its own numbers, not the run's record.
 
 So :mod:`coopsat.analysis.metrics` and :mod:`coopsat.analysis.compare` stay generic as papers
 are added.
 """
 
 import importlib
+from collections.abc import Mapping
+
+from coopsat.analysis.stages import guarded
+from coopsat.core.errors import one_line
+from coopsat.plugins import PluginError
 
 
-def paper_modules(built):
-    """The analysis modules of a built run's plug-ins (each once, in plug-in order)."""
-    names = dict.fromkeys(p.analysis for p in built.plugins if p.analysis)
-    return [importlib.import_module(name) for name in names]
+def _is_names(value):
+    return isinstance(value, (tuple, list)) and all(isinstance(v, str) for v in value)
 
 
-def paper_metrics(ds, built):
-    """Every paper module's metrics of a finished run."""
-    m = {}
-    for module in paper_modules(built):
-        m.update(module.metrics(ds, built))
-    return m
+def _is_callable_map(value):
+    return isinstance(value, Mapping) and all(isinstance(k, str) and callable(v) for k, v in value.items())
 
 
-def explainers(built):
-    """The paper modules' explanations, merged."""
+def _is_mapping(value):
+    return isinstance(value, Mapping) and all(isinstance(k, str) for k in value)
+
+
+MEMBERS = {
+    "metrics": (callable, "a function (ds, built) -> dict of name -> float"),
+    "EXPLAINERS": (_is_callable_map, "a dict of metric name or '_suffix' -> function (quantity, metrics) -> str or None"),
+    "series": (callable, "a function (ds, built) -> dict of name -> xarray.DataArray"),
+    "FIGURES": (lambda v: isinstance(v, str), "the name of a module with figures(ds, built) -> dict of stem -> Figure"),
+    "PAIRED_SERIES": (_is_names, "a tuple of series names"),
+    "SURROGATES": (_is_mapping, "a dict of metric name -> coopsat.analysis.surrogates.Surrogate"),
+}
+"""What an analysis module may define: name -> (test of its value, what it must be). Every
+member is optional; an absent one contributes nothing."""
+
+_checked = {}  # module name -> the imported module, once its members passed
+
+
+def analysis_module(name, owner):
+    """The analysis module ``name``, imported and checked against :data:`MEMBERS`.
+
+    Parameters
+    ----------
+    name : str
+        Importable module name.
+    owner : str
+        The plug-in that names it, for the message (``"controller 'consensus-sync' of coopsat
+        (coopsat.plugins.consensus)"``).
+
+    Raises
+    ------
+    PluginError
+        One line: the module cannot be imported, or a member has the wrong type.
+    """
+    if name in _checked:
+        return _checked[name]
+    try:
+        module = importlib.import_module(name)
+    except Exception as err:  # noqa: BLE001 (a foreign module's import error, reported in one line)
+        raise PluginError(f"analysis module '{name}' of plug-in {owner} failed to import: {one_line(err)}") from None
+    for member, (test, what) in MEMBERS.items():
+        if hasattr(module, member) and not test(getattr(module, member)):
+            got = type(getattr(module, member)).__name__
+            raise PluginError(f"analysis module '{name}' of plug-in {owner}: {member} must be {what}, not a {got}")
+    _checked[name] = module
+    return module
+
+
+def owners(built):
+    """``{analysis module name: "role 'kind' of origin"}`` for the run's plug-ins (each module
+    once, in plug-in order; the first plug-in naming it is its owner)."""
     out = {}
-    for module in paper_modules(built):
-        out.update(module.EXPLAINERS)
+    for p in built.plugins:
+        if p.analysis and p.analysis not in out:
+            out[p.analysis] = f"{p.role} '{p.kind}' of {p.origin}"
     return out
 
 
-def paper_series(ds, built):
-    """The run's dataset with every paper module's derived time series added."""
+def paper_modules(built):
+    """The checked analysis modules of a built run's plug-ins (each once, in plug-in order).
+
+    Raises
+    ------
+    PluginError
+        See :func:`analysis_module`.
+    """
+    return [analysis_module(name, owner) for name, owner in owners(built).items()]
+
+
+def member(module, name):
+    """A module's member, or its default when absent (an empty dict or tuple, or None)."""
+    default = {"EXPLAINERS": {}, "SURROGATES": {}, "PAIRED_SERIES": ()}.get(name)
+    return getattr(module, name, default)
+
+
+def _source(module, built):
+    return f"analysis module '{module.__name__}' of plug-in {owners(built)[module.__name__]}"
+
+
+def paper_metrics(ds, built, failures=None):
+    """Every paper module's metrics of a finished run; a module that raises is recorded in
+    ``failures`` (a list of :class:`~coopsat.analysis.stages.StageFailure`; None: the error
+    propagates) and adds none."""
+    m = {}
     for module in paper_modules(built):
-        if hasattr(module, "series"):
-            ds = ds.assign(module.series(ds, built))
+        if member(module, "metrics") is not None:
+            m.update(guarded(failures, "metrics", _source(module, built), {}, module.metrics, ds, built))
+    return m
+
+
+def explainers(built, failures=None):
+    """The paper modules' explanations, merged; each wrapped so that one that raises is
+    recorded in ``failures`` and explains nothing."""
+    out = {}
+    for module in paper_modules(built):
+        source = _source(module, built)
+        for key, explain in member(module, "EXPLAINERS").items():
+            out[key] = lambda quantity, metrics, explain=explain, source=source: guarded(
+                failures, "comparison", source, None, explain, quantity, metrics)
+    return out
+
+
+def paper_series(ds, built, failures=None):
+    """The run's dataset with every paper module's derived time series added; a module whose
+    ``series`` raises (or returns something that is not series of the record) is recorded in
+    ``failures`` and adds none."""
+    for module in paper_modules(built):
+        if member(module, "series") is not None:
+            ds = guarded(failures, "series", _source(module, built), ds, lambda m=module: ds.assign(m.series(ds, built)))
     return ds

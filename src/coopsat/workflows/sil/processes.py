@@ -211,9 +211,9 @@ class Fleet:
         stop request."""
         slice_ms = POLL_SLICE_MS if until is None else min(POLL_SLICE_MS, max(0.0, until - time.monotonic()) * 1e3)
         if self._poller.poll(slice_ms):
-            identity, frame = self._sock.recv_multipart()
+            identity, *frames = self._sock.recv_multipart()
             self._since.pop(self._name.get(identity), None)  # alive
-            return identity, schema.read(self._name.get(identity), frame)
+            return identity, schema.read(self._name.get(identity), frames)
         interrupt.check()  # a Ctrl-C at the terminal reaches the flight software too: a stop, not a crash
         for name in waiting:
             code = self.procs[name].poll()

@@ -68,17 +68,20 @@ def replies_schema(outbox, commands, record):
             protocol.COMMAND: {"commands": table(commands), "record": table(record)}}
 
 
-def read(name, frame):
-    """One frame from a flight software as a message (a map with a ``type``); ``name``: the
-    spacecraft that sent it, None before its hello.
+def read(name, frames):
+    """A message from a flight software (its ZeroMQ frames: one) as a map with a ``type``;
+    ``name``: the spacecraft that sent it, None before its hello.
 
     Raises
     ------
     SILError
-        A frame over :data:`MAX_FRAME_BYTES` or not a msgpack map with a ``type``; and an
-        ``error`` message, quoted (its first 200 characters, on one line).
+        Not one frame, a frame over :data:`MAX_FRAME_BYTES` or not a msgpack map with a
+        ``type``; and an ``error`` message, quoted (its first 200 characters, on one line).
     """
     who = name or "a flight-software process before its hello"
+    if len(frames) != 1:
+        raise SILError(f"{who}: a message of {len(frames)} ZeroMQ frames (a message is one frame)")
+    frame = frames[0]
     if len(frame) > MAX_FRAME_BYTES:
         raise SILError(f"{who}: a message of {len(frame)} bytes (at most {MAX_FRAME_BYTES})")
     try:

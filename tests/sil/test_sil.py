@@ -264,3 +264,36 @@ def test_the_command_line_says_bad_input_in_one_line(tmp_path):
     assert out.returncode == 2
     assert out.stderr.strip().splitlines() == ["coopsat: error: --kill sat7@1: no spacecraft 'sat7' (spacecraft: sat1, sat2, "
                                                "sat3, sat4, sat5)"]
+
+
+BAD_REPLY = Path(__file__).with_name("bad_reply.py")
+
+
+def test_a_flight_software_that_replies_by_the_setup_schema_alone_flies():
+    """The schema ``setup`` tells (``replies``) is the one replies are checked against: a flight
+    software that answers zeros of every shape it names flies, here law (4), whose record holds
+    the reference attitude too (one value per instant, not per spacecraft)."""
+    ds = sil(_short("consensus-track-stable"), externals={"sat2": f"{sys.executable} {BAD_REPLY} zeros"}).dataset
+    assert "q_ref" in ds and not ds["torque_command"].sel(spacecraft="sat2").values.any()
+    assert ds["torque_command"].sel(spacecraft="sat1").values.any()
+
+
+@pytest.mark.parametrize("mode, says", [
+    ("no-record", "sat2: command reply: record field 'torque_command' missing (expected float64 shape (3,))"),
+    ("short-record", "sat2: command reply: record field 'torque_command' has shape (2,) (expected float64 shape (3,))"),
+], ids=["no-record", "short-record"])
+def test_a_reply_without_its_record_ends_the_command_in_one_line_leaving_nothing(tmp_path, mode, says):
+    """An external flight software whose command comes without its record, or with it one number
+    short: one line on stderr (nothing else with ``-q``), status 2, no run folder, no process of
+    the run left."""
+    cmd = [sys.executable, "-m", "coopsat.cli", "sil", "consensus-sync-a-stable", "--set", "sim.t_final_s=1", "-q",
+           "--out", str(tmp_path / "D"), "--external", f"sat2={sys.executable} {BAD_REPLY} {mode}"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=300)
+        assert (proc.returncode, out, err.splitlines()) == (2, "", [f"coopsat: error: {says}"])
+        assert not (tmp_path / "D").exists()
+        assert _group_members(proc.pid) == []
+    finally:
+        if _group_members(proc.pid):
+            os.killpg(proc.pid, signal.SIGKILL)

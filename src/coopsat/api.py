@@ -250,7 +250,7 @@ def plot(run_dir: str | Path, what: Sequence[str] | None = None, out: str | Path
         Figures by file stem (``attitude``, ``torque_sat1``, a paper's ``formation_error`` …);
         default every figure the run has.
     out : str or Path, optional
-        Folder for the PNG files; default the run folder.
+        Folder for the PNG files (created if missing); default the run folder.
 
     Returns
     -------

@@ -3,7 +3,10 @@ Cesium scene) — ``coopsat export`` and :func:`coopsat.export` (docs/export.md)
 ``exports``, not ``export``: importing a subpackage ``coopsat.export`` would replace the public
 function ``coopsat.export`` with the module.
 
-Each format is a module with ``SUFFIX``, ``ONE_OBJECT_PER_FILE``, ``WHAT`` and ``render``;
+Each format is a module with ``SUFFIX``, ``ONE_OBJECT_PER_FILE``, ``WHAT``, ``LIBRARY`` and
+``render(run, name)``: the text of spacecraft ``name`` (one of ``run.names``) of ``run``, a
+:class:`~coopsat.exports.run.RunStates`, or :class:`ExportError` for a run that lacks what the
+format holds; a format of several objects per file is given ``run.names`` instead of one name.
 :data:`FORMATS` names them, so a new format is a new module and a line here. The module and its
 library (ccsds-ndm, czml3: the ``export`` extra, ``pip install 'coopsat[export]'``; ccsds-ndm is
 GPL-3.0, so it stays out of a plain installation) are imported only when that format is asked for.
@@ -61,28 +64,9 @@ def _check_target(out, folder, suffix):
 
 
 def export_run(source, fmt, out=None):
-    """Write a run in a standard format.
-
-    Parameters
-    ----------
-    source : str, Path or coopsat.Result
-        A run folder written by ``coopsat run`` (its ``result.nc``), or a run in memory.
-    fmt : {"oem", "aem", "czml"}
-    out : str or Path, optional
-        The file (the folder, for an OEM or AEM of several spacecraft). Default: in the run
-        folder (the current folder for a run in memory), ``<scenario>.<fmt>`` or
-        ``<scenario>-<fmt>/``.
-
-    Returns
-    -------
-    Path
-        The file or folder written.
-
-    Raises
-    ------
-    ExportError
-        An unknown format, a run that lacks what the format holds (positions, attitude, a
-        named central body), or an output that cannot be written: one line naming the cause.
+    """Write a run in a standard format: :func:`coopsat.export` (``coopsat export``), whose
+    docstring is the reference for the arguments (here ``source`` is its ``run`` and ``fmt`` its
+    ``format``), the path returned and the :class:`ExportError` raised.
     """
     writer = _writer(fmt)
     run = read_states(source)

@@ -401,28 +401,9 @@ class PlotError(ValueError):
 
 
 def plot_run(run_dir, what=None, out=None):
-    """Draw a run folder's figures again from its ``result.nc`` (``coopsat plot``).
-
-    Parameters
-    ----------
-    run_dir : str or Path
-        A run folder written by ``coopsat run``.
-    what : iterable of str, optional
-        File stems of the figures to draw (``attitude``, ``torque_sat1``, a paper's
-        ``formation_error`` …); default every figure the run has.
-    out : str or Path, optional
-        Folder for the PNG files (created if missing); default ``run_dir``.
-
-    Returns
-    -------
-    list of Path
-        The files written.
-
-    Raises
-    ------
-    PlotError
-        No record in ``run_dir``, or a stem the run has no figure of (the message lists those
-        it has).
+    """Draw a run folder's figures again from its ``result.nc``: :func:`coopsat.plot` (``coopsat
+    plot``), whose docstring is the reference for the arguments, the files returned and the
+    :class:`PlotError` raised.
     """
     from coopsat.plots.figures import figure_makers, save_figures
 

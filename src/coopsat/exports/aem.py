@@ -22,13 +22,7 @@ LIBRARY = ("ccsds-ndm", "ccsds_ndm")
 
 
 def render(run, name):
-    """The AEM text of spacecraft ``name`` of ``run``.
-
-    Parameters
-    ----------
-    run : coopsat.exports.run.RunStates
-    name : str
-        One of ``run.names``.
+    """The AEM text of spacecraft ``name`` of ``run``: a format's ``render`` (:mod:`coopsat.exports`).
 
     Raises
     ------

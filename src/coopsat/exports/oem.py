@@ -18,13 +18,7 @@ KM_PER_M = 1e-3
 
 
 def render(run, name):
-    """The OEM text of spacecraft ``name`` of ``run``.
-
-    Parameters
-    ----------
-    run : coopsat.exports.run.RunStates
-    name : str
-        One of ``run.names``.
+    """The OEM text of spacecraft ``name`` of ``run``: a format's ``render`` (:mod:`coopsat.exports`).
 
     Raises
     ------

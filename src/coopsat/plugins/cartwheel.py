@@ -69,18 +69,12 @@ class CartwheelTable(Table):
     pso_iterations: int = Field(30, ge=1, le=10000, description="PSO iterations per solve.")
 
 
-def _index(name, ctx, where):
-    if name not in ctx.names:
-        raise DesignError(f"{where}: unknown spacecraft '{name}' (known: {', '.join(ctx.names)})")
-    return ctx.names.index(name)
-
-
 def _chief_orbit(table, ctx):
     """Semi-major axis, m, eccentricity, and mean motion, rad/s, of the chief's initial orbit."""
     import numpy as np
 
     mu = ctx.scenario.orbit.mu_m3_s2
-    c = _index(table.chief, ctx, "controller.chief")
+    c = ctx.index(table.chief, "controller.chief")
     r, v = ctx.r_eci_m[c], ctx.v_eci_m_s[c]
     a = 1.0 / (2.0 / np.linalg.norm(r) - v @ v / mu)
     e = np.linalg.norm(np.cross(v, np.cross(r, v)) / mu - r / np.linalg.norm(r))
@@ -106,8 +100,8 @@ def design(table, ctx):
 
     _require_inputs(table, ctx)
     n_sc = ctx.n
-    chief = _index(table.chief, ctx, "controller.chief")
-    deputies = [_index(d, ctx, f"controller.deputies[{k}]") for k, d in enumerate(table.deputies)]
+    chief = ctx.index(table.chief, "controller.chief")
+    deputies = [ctx.index(d, f"controller.deputies[{k}]") for k, d in enumerate(table.deputies)]
     if chief in deputies or len(set(deputies)) != len(deputies):
         raise DesignError(f"controller.deputies: must be distinct and exclude the chief, got {table.deputies}")
     a, e, n = _chief_orbit(table, ctx)

@@ -71,13 +71,6 @@ class FormationObserverTable(Table):
     )
 
 
-def _hub(table, ctx):
-    name = table.hub or ctx.names[0]
-    if name not in ctx.names:
-        raise DesignError(f"controller.hub: unknown spacecraft '{name}' (known: {', '.join(ctx.names)})")
-    return ctx.names.index(name)
-
-
 def _geometry(table, ctx):
     """Initial positions relative to the centroid (n, d), targets (n, d), common mass."""
     import numpy as np
@@ -156,7 +149,7 @@ def _design(table, ctx, force_scale_n=None):
 
     p0, target, mass, axes = _geometry(table, ctx)
     n, d = p0.shape
-    hub = _hub(table, ctx)
+    hub = ctx.index(table.hub or ctx.names[0], "controller.hub")
     scale = table.force_scale_n if force_scale_n is None else force_scale_n
     try:
         model = formation_model(n, d, mass)

@@ -41,10 +41,7 @@ class LeaderFollowerTable(Table):
 
 
 def _leader_index(table, ctx):
-    name = table.leader or ctx.names[0]
-    if name not in ctx.names:
-        raise DesignError(f"controller.leader: unknown spacecraft '{name}' (known: {', '.join(ctx.names)})")
-    return ctx.names.index(name)
+    return ctx.index(table.leader or ctx.names[0], "controller.leader")
 
 
 def follower_hops(table, ctx):

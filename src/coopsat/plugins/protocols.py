@@ -100,6 +100,21 @@ class BuildContext:
     def n(self):
         return len(self.names)
 
+    def index(self, name, where):
+        """The state-order index of spacecraft ``name``.
+
+        Raises
+        ------
+        coopsat.plugins.DesignError
+            A name the scenario has no spacecraft of: one line naming ``where`` (the table key,
+            e.g. ``"controller.chief"``) and the known names.
+        """
+        if name not in self.names:
+            from coopsat.plugins import DesignError
+
+            raise DesignError(f"{where}: unknown spacecraft '{name}' (known: {', '.join(self.names)})")
+        return self.names.index(name)
+
 
 class Builder(Protocol):
     """A plug-in's builder, :attr:`coopsat.plugins.Plugin.build`."""

@@ -220,10 +220,9 @@ def _build_relative_navigation(table, ctx):
     from coopsat.sim.system import as_arrays
 
     every = _every(table, ctx)
-    if table.chief not in ctx.names:
-        raise DesignError(f"{_place(table, ctx)}.chief: unknown spacecraft '{table.chief}' (known: {', '.join(ctx.names)})")
+    chief = ctx.index(table.chief, f"{_place(table, ctx)}.chief")
     sigma = np.concatenate([_per_axis(table.sigma_m), _per_axis(table.sigma_m_s)])
-    return Part(*as_arrays((sigma, np.int32(ctx.names.index(table.chief)))), every=every)
+    return Part(*as_arrays((sigma, np.int32(chief))), every=every)
 
 
 def _build_sun_sensor(table, ctx):

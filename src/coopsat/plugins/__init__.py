@@ -85,19 +85,22 @@ __all__ = [
     "PluginError", "DesignError", "DesignCheck", "Tunable", "BuildContext",
     "Controller", "LocalController", "NetworkDelivery", "Sensor", "Actuator", "Disturbance", "Builder", "Check",
     "protocol_problems",
-    "Table", "part", "OutputSpec", "Pulse", "Inbox",
+    "Table", "Quaternion", "UnitVector", "part", "OutputSpec", "Pulse", "Inbox",
 ]
 
 _LAZY = {
     "Table": "coopsat.plugins.tables",
+    "Quaternion": "coopsat.plugins.tables",
+    "UnitVector": "coopsat.plugins.tables",
     "part": "coopsat.core.parts",
     "OutputSpec": "coopsat.core.parts",
     "Pulse": "coopsat.actuators.pulses",
     "Inbox": "coopsat.network.delivery",
 }
 """What a plug-in is made with, loaded on first use: :class:`~coopsat.plugins.tables.Table`, the
-base of every scenario table (unknown keys, NaN, ∞ and coerced types refused); and, importing
-JAX, the pytree decorator
+base of every scenario table (unknown keys, NaN, ∞ and coerced types refused), and the field
+types :data:`~coopsat.plugins.tables.Quaternion` and :data:`~coopsat.plugins.tables.UnitVector`
+(unit to within 0.05, as coopsat's own ``q_bi``); and, importing JAX, the pytree decorator
 :func:`~coopsat.core.parts.part`, :class:`~coopsat.core.parts.OutputSpec` (how a recorded output
 appears in the dataset), :class:`~coopsat.actuators.pulses.Pulse` (what an actuator's ``plan``
 returns) and :class:`~coopsat.network.delivery.Inbox` (what a network's ``deliver`` returns and

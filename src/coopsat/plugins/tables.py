@@ -1,7 +1,8 @@
 """Building blocks of scenario tables shared by the core schema and every plug-in's table.
 
 Every table forbids unknown keys, NaN and infinity, and is frozen; vectors and quaternions are
-checked by the annotated types below (one definition each).
+checked by the annotated types below (one definition each). :data:`Quaternion` and
+:data:`UnitVector` are the field types offered to other packages' tables (``coopsat.plugins``).
 """
 
 import math
@@ -13,7 +14,9 @@ from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fie
 from pydantic_core import core_schema
 
 QUAT_NORM_TOL = 0.05
-"""Scenario quaternions are normalised at load; a norm further than this from 1 is a typo."""
+"""Largest distance of a scenario quaternion's (or unit vector's) norm from 1. The papers print
+quaternions rounded to two decimals (``q_bi = [0.75, 0.57, 0.30, -0.03]``, norm 0.989), which
+the builders normalise; a norm further than this from 1 is a typo (a lost or doubled digit)."""
 
 
 def float_errors_raise():
@@ -174,6 +177,63 @@ def Bounded3(limit, unit):  # noqa: N802 (a type constructor)
 
 Quat = Annotated[list[float], Field(min_length=4, max_length=4), AfterValidator(_check_quaternion)]
 """A scalar-first quaternion, unit to within :data:`QUAT_NORM_TOL`."""
+
+
+# The field types of plug-in tables (exported by coopsat.plugins, docs/plugins.md "Field
+# types"): the rule of coopsat's own q_bi and spin axes, with messages that name the problem.
+
+
+def _fixed_length(n, what):
+    """Before validation: a TOML array (a list) as a tuple, of exactly ``n`` elements."""
+
+    def check(v):
+        if isinstance(v, list):
+            v = tuple(v)
+        if isinstance(v, tuple) and len(v) != n:
+            raise ValueError(f"needs {n} numbers {what}, got {len(v)}")
+        return v
+
+    return BeforeValidator(check)
+
+
+def _unit_norm(what):
+    """After validation: every element finite and the norm within :data:`QUAT_NORM_TOL` of 1.
+    The value is returned as written (not normalised), as coopsat's own scenario fields keep it:
+    the resolved scenario then replays bit for bit, and the builder normalises."""
+
+    def check(v):
+        if not all(math.isfinite(x) for x in v):
+            raise ValueError(f"must be finite, got {list(v)}; expected {what}")
+        norm = vector_norm(v)
+        if norm == 0.0:
+            raise ValueError(f"is zero; expected {what}")
+        if math.isinf(norm):
+            raise ValueError(f"norm overflows float64 (above {FLOAT_MAX:.3g}); expected {what}")
+        if abs(norm - 1.0) > QUAT_NORM_TOL:
+            raise ValueError(f"norm is {norm:.4g}; expected {what} (norm within {QUAT_NORM_TOL:g} of 1)")
+        return v
+
+    return AfterValidator(check)
+
+
+_QUATERNION = "a unit quaternion [q0, q1, q2, q3], scalar first"
+_UNIT_VECTOR = "a unit vector [x, y, z]"
+
+Quaternion = Annotated[tuple[float, float, float, float], _fixed_length(4, "[q0, q1, q2, q3] (scalar first)"),
+                       _unit_norm(_QUATERNION)]
+"""A scalar-first unit quaternion ``(q0, q1, q2, q3)``, Hamilton convention, for a plug-in's table.
+
+Accepts a TOML array (list) or a tuple of four finite numbers whose norm is within
+:data:`QUAT_NORM_TOL` (0.05) of 1: the rule of coopsat's own ``q_bi``, so that a quaternion
+copied from a paper, printed to two decimals, is accepted in either place. The table holds the
+numbers as written (a tuple); the builder normalises them (``q / np.linalg.norm(q)``). Refused,
+in one line: a length other than 4, a non-finite element, a zero quaternion, a norm further
+from 1 (a typo: a lost or doubled digit)."""
+
+UnitVector = Annotated[tuple[float, float, float], _fixed_length(3, "[x, y, z]"), _unit_norm(_UNIT_VECTOR)]
+"""A unit 3-vector ``(x, y, z)`` (an axis, a direction) for a plug-in's table: three finite
+numbers whose norm is within :data:`QUAT_NORM_TOL` of 1 (the rule of ``reaction-wheels``'
+``spin_axes_b``), held as written; the builder normalises. Refused as :data:`Quaternion` is."""
 
 
 def whole_ratio(a, b):

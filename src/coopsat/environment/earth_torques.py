@@ -18,6 +18,7 @@ from coopsat.astro.atmosphere import altitude_m, density_kg_m3
 from coopsat.astro.earth import OMEGA_EARTH_RAD_S, rotation_angle_rad
 from coopsat.astro.magnetic import dipole_field_eci
 from coopsat.astro.sun import sun_position_eci_m, sunlit
+from coopsat.environment.torques import Stateless
 from coopsat.geometry.quaternion import cross, quat_rotate_inverse
 
 
@@ -92,7 +93,7 @@ def facet_srp_torque_b(sun_b, pressure_n_m2, normals_b, areas_m2, centres_b_m, s
 
 
 @part()
-class AerodynamicTorque:
+class AerodynamicTorque(Stateless):
     """Aerodynamic torque on facets in an exponential atmosphere that turns with the Earth.
 
     Attributes
@@ -107,12 +108,6 @@ class AerodynamicTorque:
     areas_m2: jnp.ndarray
     centres_b_m: jnp.ndarray
     cd: jnp.ndarray
-
-    def init(self, n):
-        return ()
-
-    def update(self, t, x, state, key):
-        return state
 
     def wrench(self, t, x, state):
         omega_earth = jnp.asarray([0.0, 0.0, OMEGA_EARTH_RAD_S])[:, None]
@@ -129,7 +124,7 @@ class AerodynamicTorque:
 
 
 @part()
-class SolarPressureTorque:
+class SolarPressureTorque(Stateless):
     """Solar radiation pressure torque on facets, with the Earth's cylindrical shadow.
 
     Attributes
@@ -149,12 +144,6 @@ class SolarPressureTorque:
     pressure_1au_n_m2: jnp.ndarray
     au_m: jnp.ndarray
     jd0: jnp.ndarray
-
-    def init(self, n):
-        return ()
-
-    def update(self, t, x, state, key):
-        return state
 
     def wrench(self, t, x, state):
         r_sun = sun_position_eci_m(self.jd0 + t / 86400.0)[:, None]
@@ -177,7 +166,7 @@ class SolarPressureTorque:
 
 
 @part()
-class ResidualDipoleTorque:
+class ResidualDipoleTorque(Stateless):
     """Torque of a residual magnetic dipole ``m`` in the Earth's field, ``L = m × B``.
 
     Attributes
@@ -190,12 +179,6 @@ class ResidualDipoleTorque:
 
     dipole_b_am2: jnp.ndarray
     gmst0_rad: jnp.ndarray
-
-    def init(self, n):
-        return ()
-
-    def update(self, t, x, state, key):
-        return state
 
     def wrench(self, t, x, state):
         b_b = quat_rotate_inverse(x.q_bi, dipole_field_eci(x.r_eci, rotation_angle_rad(t, self.gmst0_rad), 0), 0)

@@ -8,6 +8,7 @@ Disturbance parts as in :mod:`coopsat.environment.torques`: ``init``, ``update``
 import jax.numpy as jnp
 
 from coopsat.core.parts import OutputSpec, part
+from coopsat.environment.torques import Stateless
 from coopsat.geometry.quaternion import dot
 
 
@@ -46,7 +47,7 @@ def srp_force_eci(r_sun_to_sc_m, area_m2, reflectivity, pressure_1au_n_m2, au_m,
 
 
 @part()
-class SolarRadiationPressure:
+class SolarRadiationPressure(Stateless):
     """Solar radiation pressure part; the Sun is the central body of ``[orbit]`` (heliocentric runs).
 
     Attributes
@@ -60,12 +61,6 @@ class SolarRadiationPressure:
     reflectivity: jnp.ndarray
     pressure_1au_n_m2: jnp.ndarray
     au_m: jnp.ndarray
-
-    def init(self, n):
-        return ()
-
-    def update(self, t, x, state, key):
-        return state
 
     def wrench(self, t, x, state):
         return {"force_eci": srp_force_eci(x.r_eci, self.area_m2, self.reflectivity, self.pressure_1au_n_m2, self.au_m, 0)}

@@ -45,8 +45,19 @@ def gravity_gradient_torque_b(q_bi, r_eci_m, inertia_kgm2, mu_m3_s2, axis=-1):
     return 3.0 * mu_m3_s2 / (r2 * jnp.sqrt(r2)) * cross(r_hat_b, matvec3(inertia_kgm2, r_hat_b, axis), axis)
 
 
+class Stateless:
+    """Base of a disturbance part without state: ``init`` gives none (``()``) and ``update``
+    keeps it, so the part defines only ``wrench``, ``record`` and ``output_specs``."""
+
+    def init(self, n):
+        return ()
+
+    def update(self, t, x, state, key):
+        return state
+
+
 @part()
-class GravityGradient:
+class GravityGradient(Stateless):
     """Gravity-gradient torque part (needs an orbit).
 
     Attributes
@@ -57,12 +68,6 @@ class GravityGradient:
 
     inertia_kgm2: jnp.ndarray
     mu_m3_s2: jnp.ndarray
-
-    def init(self, n):
-        return ()
-
-    def update(self, t, x, state, key):
-        return state
 
     def wrench(self, t, x, state):
         return {"torque_b": gravity_gradient_torque_b(x.q_bi, x.r_eci, self.inertia_kgm2, self.mu_m3_s2, 0)}

@@ -93,7 +93,7 @@ def _phase(name):
         "compile": (coopsat.sim.engine, "simulate"),
         "simulate": (coopsat.sim.engine, "_run_chunks"),
         "metrics": (coopsat.workflows.pipeline, "analyse"),
-        "write-result": (xr.Dataset, "to_netcdf"),
+        "write-result": (xr.Dataset, "dump_to_store"),
         "write-figures": (coopsat.plots.figures, "save_figures"),
     }[name]
 
@@ -116,7 +116,7 @@ def test_a_stop_while_the_record_is_written_does_not_wait_for_the_figures(tmp_pa
 
     drawn = []
     monkeypatch.setattr(coopsat.plots.figures, "save_figures", lambda *args, **kwargs: drawn.append(args))
-    signal_on_entry(monkeypatch, xr.Dataset, "to_netcdf", signal.SIGINT)
+    signal_on_entry(monkeypatch, xr.Dataset, "dump_to_store", signal.SIGINT)
     line = stopped(capsys, [*RUN, "--out", tmp_path / "runs" / "r", "-q", "--figures"], signal.SIGINT)
     assert_nothing_written(line, tmp_path / "runs", signal.SIGINT)
     assert drawn == []

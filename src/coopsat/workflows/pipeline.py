@@ -19,7 +19,7 @@ from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import attitude_moves, run_metrics
 from coopsat.analysis.papers import explainers, member, paper_metrics, paper_modules, paper_series
 from coopsat.analysis.stages import StageError, guarded
-from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
+from coopsat.workflows.folders import atomic_folder, check_folder, json_ready, write_netcdf
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
 from coopsat.scenarios.run_length import check_run_length
 from coopsat.scenarios.load import ScenarioError, resolved_toml
@@ -292,7 +292,7 @@ def write_run_folder(out_dir, built, ds, metrics, rows, figures=False, report=Tr
             )
             + "\n"
         )
-        ds.to_netcdf(tmp / "result.nc", engine="h5netcdf")
+        write_netcdf(ds, tmp / "result.nc")
         (tmp / "metrics.json").write_text(json.dumps(json_ready(metrics), indent=2, allow_nan=False) + "\n")
         if built.scenario.published:
             (tmp / "comparison.json").write_text(json.dumps(json_ready(rows), indent=2, allow_nan=False) + "\n")

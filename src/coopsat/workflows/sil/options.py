@@ -1,5 +1,7 @@
 """The options of ``coopsat sil``, as data (the command line adds them; this module imports
-nothing, so building the parser stays quick)."""
+only argparse, so building the parser stays quick)."""
+
+import argparse
 
 DESCRIPTION = ("run a scenario as software in the loop, one flight-software process per spacecraft; the plant, "
                "sensors, actuators and network stay here, the processes speak ZeroMQ and msgpack in lockstep, and the "
@@ -25,7 +27,7 @@ OPTIONS = (
                              "help": "longest wait for a process's answer in one control period (default 10 s)"}),
     (("--start-timeout",), {"type": float, "default": 120.0, "metavar": "S",
                             "help": "longest wait for every process to start and answer the handshake (default 120 s)"}),
-    (("--no-figures",), {"action": "store_true", "help": "skip the PNG figures"}),
+    (("--figures",), {"action": argparse.BooleanOptionalAction, "help": "also draw the PNG figures (or: coopsat plot)"}),
     (("--no-report",), {"action": "store_true", "help": "skip report.html (the interactive report)"}),
     (("--quiet", "-q"), {"action": "store_true",
                          "help": "print only warnings and errors (no process ids, events, folder line or metrics)"}),

@@ -107,7 +107,7 @@ def sil_command(args, out, err):
                  externals=parse_externals(args.external), fault_command=args.fault_command, realtime=args.realtime,
                  answer_s=args.answer_timeout, handshake_s=args.start_timeout,
                  on_warning=lambda note: err(f"warning: {note}"), on_start=on_start)
-    result.save(args.out, figures=not args.no_figures, report=not args.no_report)
+    result.save(args.out, figures=bool(args.figures), report=not args.no_report)
     if args.quiet:
         return 0
     out(f"wrote {args.out}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")

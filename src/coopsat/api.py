@@ -136,8 +136,15 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
         ``.result`` holds the record and whatever else was computed, and with ``out_dir`` the
         folder is written (``.out_dir``).
     """
+    return _with_folder(lambda: _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long,
+                                         native=native), out_dir, figures, report)
+
+
+def _with_folder(make, out_dir, figures, report):
+    """``make()``'s Result, its run folder written at ``out_dir`` (when not None) even when a
+    stage after the simulation failed (the StageError is raised after writing, naming the folder)."""
     try:
-        result = _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long, native=native)
+        result = make()
     except StageError as err:
         if out_dir is None:
             raise
@@ -181,14 +188,14 @@ def sil(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
     coopsat.workflows.sil.processes.SILError
         A controller that cannot be split per spacecraft, a fault naming an unknown spacecraft
         or a time outside the run, a process that does not start or answer in time (one line).
+    StageError
+        As :func:`run`.
     """
     from coopsat.workflows.sil.run import sil as _sil
 
-    result = _sil(_document(scenario), seed=seed, kill=kill, pause=pause, externals=externals,
-                  fault_command=fault_command, realtime=realtime, answer_s=answer_s, handshake_s=handshake_s)
-    if out_dir is not None:
-        result.save(out_dir, figures=figures, report=report)
-    return result
+    return _with_folder(lambda: _sil(_document(scenario), seed=seed, kill=kill, pause=pause, externals=externals,
+                                     fault_command=fault_command, realtime=realtime, answer_s=answer_s,
+                                     handshake_s=handshake_s), out_dir, figures, report)
 
 
 def load_run(run_dir: str | Path) -> Result:

@@ -590,7 +590,7 @@ def main(argv=None):
 
 
 def command():
-    """The ``coopsat`` script: :func:`main`, then the end without Python's teardown (issue 26)."""
+    """The ``coopsat`` script: :func:`main`, then :func:`coopsat.core.process_exit.end`."""
     from coopsat.core.process_exit import end
 
     end(main())

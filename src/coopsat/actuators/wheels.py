@@ -73,7 +73,7 @@ def speed_limited_torque(tau_wheels_nm, h_wheels_nms, h_max_nms, hold_s):
     -----
     A real drive regulates speed: a torque that would spin the wheel past its rated speed is
     cut, so the wheel runs up to the limit and stays there. Testing the limit only at the
-    sample (this model until issue 26) lets a wheel just inside it overshoot by up to
+    sample only lets a wheel just inside it overshoot by up to
     ``torque_max`` × the hold, about 2 % for SPEC §5's wheels at 10 Hz; cutting the torque to
     what is left of the limit over the hold stops the wheel at it, to rounding. What the
     drive cannot foresee is the body's rate change during the hold, which moves the speed

@@ -3,7 +3,7 @@
 After a command has done its work and printed its last line, Python's finalization still frees
 every module and object one by one, JAX's runtime and matplotlib's and xarray's module graphs
 among them: 0.25–0.3 s of a 1.2 s ``coopsat validate`` and 0.8–1.0 s of a 5–6 s ``coopsat run``
-on the development machine (issue 26), for nothing a user sees. :func:`end` does what a normal
+on the development machine, for nothing a user sees. :func:`end` does what a normal
 exit does that has an effect outside the process (waiting for the program's own threads, the
 :mod:`atexit` handlers, flushing stdout and stderr) and then ends the process at once.
 

@@ -95,7 +95,8 @@ def sil_command(args, out, err):
     status (0)."""
     import jax
 
-    from coopsat.workflows.pipeline import check_run_folder, summary_lines
+    from coopsat.analysis.stages import StageError
+    from coopsat.workflows.pipeline import check_run_folder, save_run, summary_lines
 
     # A few small programs per control period: inline on the CPU they cost half as much (set
     # before JAX's CPU client starts; the command's process is coopsat's own).
@@ -103,11 +104,14 @@ def sil_command(args, out, err):
     check_run_folder(args.out)
     on_start = None if args.quiet else (
         lambda pids: err("sil: flight software " + ", ".join(f"{n} pid {p}" for n, p in pids.items())))
-    result = sil(args.scenario, overrides=args.set, kill=args.kill, pause=args.pause,
-                 externals=parse_externals(args.external), fault_command=args.fault_command, realtime=args.realtime,
-                 answer_s=args.answer_timeout, handshake_s=args.start_timeout,
-                 on_warning=lambda note: err(f"warning: {note}"), on_start=on_start)
-    result.save(args.out, figures=bool(args.figures), report=not args.no_report)
+    try:
+        result = sil(args.scenario, overrides=args.set, kill=args.kill, pause=args.pause,
+                     externals=parse_externals(args.external), fault_command=args.fault_command, realtime=args.realtime,
+                     answer_s=args.answer_timeout, handshake_s=args.start_timeout,
+                     on_warning=lambda note: err(f"warning: {note}"), on_start=on_start)
+    except StageError as failed:
+        result = failed.result
+    save_run(result, args.out, figures=bool(args.figures), report=not args.no_report)  # StageError after writing
     if args.quiet:
         return 0
     out(f"wrote {args.out}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
@@ -162,6 +166,7 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
     """
     from coopsat.scenarios.document import with_overrides
     from coopsat.sim.engine import with_native_decided
+    from coopsat.analysis.stages import StageError
     from coopsat.workflows.pipeline import Result, analyse, prepare, record_dataset
     from coopsat.workflows.sil.processes import Fleet
 
@@ -201,11 +206,15 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
         fleet.close()
     from coopsat.workflows.sil import protocol
 
-    ds = record_dataset(built, out, sil_protocol_version=protocol.VERSION, sil_transport=fleet.endpoint.split(":")[0],
+    failures = []  # a stage after the loop that raises costs only its own numbers (StageError)
+    ds = record_dataset(built, out, failures, sil_protocol_version=protocol.VERSION, sil_transport=fleet.endpoint.split(":")[0],
                         sil_external=json.dumps({n: externals[n] for n in externals or {}}),
                         sil_fault_command=fault_command, sil_events=json.dumps(events.rows))
     if realtime:
         ds = _with_timing(ds, built, timing, realtime)
-    metrics, rows = analyse(built, ds)
+    metrics, rows = analyse(built, ds, failures=failures)
     checks = {c.name: c for c in built.checks.values()}
-    return Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built)
+    result = Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built, tuple(failures))
+    if failures:
+        raise StageError(failures, result)
+    return result

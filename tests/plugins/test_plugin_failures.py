@@ -154,3 +154,13 @@ def test_the_library_raises_with_the_partial_result(tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert proc.stdout.split() == ["1", "metrics", "5", "None"]
     assert (tmp_path / "saved" / "result.nc").is_file()
+
+
+def test_software_in_the_loop_keeps_its_run_too(tmp_path):
+    site, scenario = probe(tmp_path, "def metrics(ds, built):\n    return {'ratio': 1 / 0}\n")
+    out = tmp_path / "sil"
+    proc = coopsat_cmd(["sil", str(scenario), "--out", str(out), "-q", "--set", "sim.t_final_s=1.0"], site)
+    assert proc.returncode == 3, proc.stderr[-3000:]
+    assert proc.stderr.strip().count("\n") == 0 and "metrics stage failed in analysis module" in proc.stderr
+    with xr.open_dataset(out / "result.nc", engine="h5netcdf") as ds:
+        assert ds.sizes["time"] == 3 and "sil_events" in ds.attrs

@@ -257,7 +257,8 @@ def test_surrogates_collects_every_paper_modules_table_in_plugin_order():
     from coopsat.analysis.papers import consensus_2010, deep_space_2008
 
     def built(*modules):
-        return SimpleNamespace(plugins=[SimpleNamespace(analysis=m) for m in modules])
+        return SimpleNamespace(plugins=[SimpleNamespace(analysis=m, role="controller", kind=f"law{k}", origin="tests")
+                                        for k, m in enumerate(modules)])
 
     formation = surrogates(built("coopsat.analysis.papers.deep_space_2008", None))
     assert formation == deep_space_2008.SURROGATES

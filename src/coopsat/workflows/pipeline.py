@@ -17,7 +17,7 @@ import coopsat
 from coopsat.workflows import interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import attitude_moves, run_metrics
-from coopsat.analysis.papers import explainers, member, paper_metrics, paper_modules, paper_series
+from coopsat.analysis.papers import explainers, member, paper_metrics, paper_modules, paper_series, source_of
 from coopsat.analysis.stages import StageError, guarded
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready, write_netcdf
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
@@ -376,11 +376,7 @@ def run_figures(built, ds):
 
 def _figure_modules(built):
     """``(source, analysis module)`` of each paper module of the run that names ``FIGURES``."""
-    from coopsat.analysis.papers import owners
-
-    named = owners(built)
-    return [(f"analysis module '{m.__name__}' of plug-in {named[m.__name__]}", m)
-            for m in paper_modules(built) if member(m, "FIGURES") is not None]
+    return [(source_of(m, built), m) for m in paper_modules(built) if member(m, "FIGURES") is not None]
 
 
 def _module_figures(module, built, ds):

@@ -117,7 +117,8 @@ def member(module, name):
     return getattr(module, name, default)
 
 
-def _source(module, built):
+def source_of(module, built):
+    """Who a module's failure is reported against: ``"analysis module 'm' of plug-in role 'kind' of origin"``."""
     return f"analysis module '{module.__name__}' of plug-in {owners(built)[module.__name__]}"
 
 
@@ -128,7 +129,7 @@ def paper_metrics(ds, built, failures=None):
     m = {}
     for module in paper_modules(built):
         if member(module, "metrics") is not None:
-            m.update(guarded(failures, "metrics", _source(module, built), {}, module.metrics, ds, built))
+            m.update(guarded(failures, "metrics", source_of(module, built), {}, module.metrics, ds, built))
     return m
 
 
@@ -137,7 +138,7 @@ def explainers(built, failures=None):
     recorded in ``failures`` and explains nothing."""
     out = {}
     for module in paper_modules(built):
-        source = _source(module, built)
+        source = source_of(module, built)
         for key, explain in member(module, "EXPLAINERS").items():
             out[key] = lambda quantity, metrics, explain=explain, source=source: guarded(
                 failures, "comparison", source, None, explain, quantity, metrics)
@@ -150,5 +151,5 @@ def paper_series(ds, built, failures=None):
     ``failures`` and adds none."""
     for module in paper_modules(built):
         if member(module, "series") is not None:
-            ds = guarded(failures, "series", _source(module, built), ds, lambda m=module: ds.assign(m.series(ds, built)))
+            ds = guarded(failures, "series", source_of(module, built), ds, lambda m=module: ds.assign(m.series(ds, built)))
     return ds

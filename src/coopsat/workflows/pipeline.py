@@ -467,6 +467,29 @@ def run(scenario, *, seed=None, progress=False, allow_long=False, on_warning=Non
     interrupt.check()
     failures = []
     ds, out = simulate_built(built, progress=progress, native=native, failures=failures)
+    return analysed_result(doc, built, ds, out, failures)
+
+
+def analysed_result(doc, built, ds, out, failures):
+    """The :class:`Result` of a simulated run: its metrics and comparison added to its record.
+
+    Parameters
+    ----------
+    doc : coopsat.Scenario
+    built : Built
+    ds : xarray.Dataset
+        The record (:func:`record_dataset`).
+    out : RunOutput
+        The engine's output (for the compile and run times).
+    failures : list
+        The stages that failed so far (:class:`~coopsat.analysis.stages.StageFailure`); the
+        analysis adds its own.
+
+    Raises
+    ------
+    StageError
+        Some stage failed: the error carries the result.
+    """
     metrics, rows = analyse(built, ds, failures=failures)
     checks = {c.name: c for c in built.checks.values()}
     result = Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built, tuple(failures))

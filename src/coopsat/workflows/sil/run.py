@@ -166,8 +166,7 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
     """
     from coopsat.scenarios.document import with_overrides
     from coopsat.sim.engine import with_native_decided
-    from coopsat.analysis.stages import StageError
-    from coopsat.workflows.pipeline import Result, analyse, prepare, record_dataset
+    from coopsat.workflows.pipeline import analysed_result, prepare, record_dataset
     from coopsat.workflows.sil.processes import Fleet
 
     doc = with_overrides(scenario, overrides)
@@ -212,9 +211,4 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
                         sil_fault_command=fault_command, sil_events=json.dumps(events.rows))
     if realtime:
         ds = _with_timing(ds, built, timing, realtime)
-    metrics, rows = analyse(built, ds, failures=failures)
-    checks = {c.name: c for c in built.checks.values()}
-    result = Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built, tuple(failures))
-    if failures:
-        raise StageError(failures, result)
-    return result
+    return analysed_result(doc, built, ds, out, failures)

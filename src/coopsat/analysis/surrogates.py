@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from coopsat.analysis.papers import paper_modules
+from coopsat.analysis.papers import member, paper_modules
 
 SMOOTH_MAX_TEMPERATURE = 0.02
 """Temperature of :func:`smooth_max` in units of the tolerance: the log-sum-exp exceeds the
@@ -52,7 +52,7 @@ def surrogates(built):
     """Every surrogate the paper modules of a built run offer, by metric name."""
     out = {}
     for module in paper_modules(built):
-        out.update(getattr(module, "SURROGATES", {}))
+        out.update(member(module, "SURROGATES"))
     return out
 
 

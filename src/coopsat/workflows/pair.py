@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from coopsat.analysis.papers import paper_modules
+from coopsat.analysis.papers import member, paper_modules
 from coopsat.analysis.series import run_series
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
 from coopsat.workflows.pipeline import analyse
@@ -129,7 +129,7 @@ def paired_series_names(built):
     """The series the run's paper modules name in ``PAIRED_SERIES``."""
     names = []
     for module in paper_modules(built):
-        names += [n for n in getattr(module, "PAIRED_SERIES", ()) if n not in names]
+        names += [n for n in member(module, "PAIRED_SERIES") if n not in names]
     return names
 
 

@@ -47,15 +47,17 @@ def _is_mapping(value):
 
 
 MEMBERS = {
-    "metrics": (callable, "a function (ds, built) -> dict of name -> float"),
-    "EXPLAINERS": (_is_callable_map, "a dict of metric name or '_suffix' -> function (quantity, metrics) -> str or None"),
-    "series": (callable, "a function (ds, built) -> dict of name -> xarray.DataArray"),
-    "FIGURES": (lambda v: isinstance(v, str), "the name of a module with figures(ds, built) -> dict of stem -> Figure"),
-    "PAIRED_SERIES": (_is_names, "a tuple of series names"),
-    "SURROGATES": (_is_mapping, "a dict of metric name -> coopsat.analysis.surrogates.Surrogate"),
+    "metrics": (callable, "a function (ds, built) -> dict of name -> float", None),
+    "EXPLAINERS": (_is_callable_map, "a dict of metric name or '_suffix' -> function (quantity, metrics) -> str or None",
+                   {}),
+    "series": (callable, "a function (ds, built) -> dict of name -> xarray.DataArray", None),
+    "FIGURES": (lambda v: isinstance(v, str), "the name of a module with figures(ds, built) -> dict of stem -> Figure",
+                None),
+    "PAIRED_SERIES": (_is_names, "a tuple of series names", ()),
+    "SURROGATES": (_is_mapping, "a dict of metric name -> coopsat.analysis.surrogates.Surrogate", {}),
 }
-"""What an analysis module may define: name -> (test of its value, what it must be). Every
-member is optional; an absent one contributes nothing."""
+"""What an analysis module may define: name -> (test of its value, what it must be, its default
+when absent). Every member is optional; an absent one contributes nothing."""
 
 _checked = {}  # module name -> the imported module, once its members passed
 
@@ -82,7 +84,7 @@ def analysis_module(name, owner):
         module = importlib.import_module(name)
     except Exception as err:  # noqa: BLE001 (a foreign module's import error, reported in one line)
         raise PluginError(f"analysis module '{name}' of plug-in {owner} failed to import: {one_line(err)}") from None
-    for member, (test, what) in MEMBERS.items():
+    for member, (test, what, _) in MEMBERS.items():
         if hasattr(module, member) and not test(getattr(module, member)):
             got = type(getattr(module, member)).__name__
             raise PluginError(f"analysis module '{name}' of plug-in {owner}: {member} must be {what}, not a {got}")
@@ -112,9 +114,8 @@ def paper_modules(built):
 
 
 def member(module, name):
-    """A module's member, or its default when absent (an empty dict or tuple, or None)."""
-    default = {"EXPLAINERS": {}, "SURROGATES": {}, "PAIRED_SERIES": ()}.get(name)
-    return getattr(module, name, default)
+    """A module's member, or its default when absent (:data:`MEMBERS`)."""
+    return getattr(module, name, MEMBERS[name][2])
 
 
 def source_of(module, built):

@@ -12,8 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from coopsat.analysis.stages import StageError
-from coopsat.workflows.pipeline import Result, analyse, prepare, save_run
+from coopsat.workflows.pipeline import Result, analyse, prepare, run_and_save
 from coopsat.workflows.pipeline import run as _run_one
 from coopsat.scenarios.document import Scenario
 
@@ -136,22 +135,8 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
         ``.result`` holds the record and whatever else was computed, and with ``out_dir`` the
         folder is written (``.out_dir``).
     """
-    return _with_folder(lambda: _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long,
+    return run_and_save(lambda: _run_one(_document(scenario), seed=seed, progress=progress, allow_long=allow_long,
                                          native=native), out_dir, figures, report)
-
-
-def _with_folder(make, out_dir, figures, report):
-    """``make()``'s Result, its run folder written at ``out_dir`` (when not None) even when a
-    stage after the simulation failed (the StageError is raised after writing, naming the folder)."""
-    try:
-        result = make()
-    except StageError as err:
-        if out_dir is None:
-            raise
-        save_run(err.result, out_dir, figures=figures, report=report)  # raises StageError naming the folder
-    if out_dir is not None:
-        save_run(result, out_dir, figures=figures, report=report)
-    return result
 
 
 def sil(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path | None = None, figures: bool = False,
@@ -193,7 +178,7 @@ def sil(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
     """
     from coopsat.workflows.sil.run import sil as _sil
 
-    return _with_folder(lambda: _sil(_document(scenario), seed=seed, kill=kill, pause=pause, externals=externals,
+    return run_and_save(lambda: _sil(_document(scenario), seed=seed, kill=kill, pause=pause, externals=externals,
                                      fault_command=fault_command, realtime=realtime, answer_s=answer_s,
                                      handshake_s=handshake_s), out_dir, figures, report)
 

@@ -515,6 +515,27 @@ def save_run(result, out_dir, figures=False, report=True):
     return Path(out_dir)
 
 
+def run_and_save(make, out_dir, figures=False, report=True):
+    """``make()``'s :class:`Result` (a run, a SIL run), its folder written at ``out_dir`` (when
+    not None) even when a stage after the simulation failed.
+
+    Raises
+    ------
+    StageError
+        A stage failed; with ``out_dir``, raised after the folder is written, naming it.
+    """
+    try:
+        result = make()
+    except StageError as err:
+        if out_dir is None:
+            raise
+        result = err.result
+    if out_dir is not None:
+        interrupt.check()  # a stop requested during the run writes nothing
+        save_run(result, out_dir, figures=figures, report=report)
+    return result
+
+
 def summary_lines(result):
     """What ``coopsat run`` prints after the folder line: every metric, then each published
     number beside ours with the verdict and its reason (a :class:`RunResult`)."""
@@ -567,10 +588,6 @@ def run_scenario(ref, out_dir=None, overrides=(), progress=False, figures=False,
     doc = with_overrides(ref, overrides)
     target = Path(out_dir) if out_dir is not None else Path("runs") / doc.name
     check_run_folder(target)
-    try:
-        result = run(doc, progress=progress, allow_long=allow_long, on_warning=on_warning)
-    except StageError as err:
-        result = err.result
-    interrupt.check()
-    save_run(result, target, figures=figures, report=report)
+    result = run_and_save(lambda: run(doc, progress=progress, allow_long=allow_long, on_warning=on_warning), target,
+                          figures=figures, report=report)
     return RunResult(target, result.dataset, result.metrics, result.comparison, result.warnings, result.compile_s, result.run_s)

@@ -95,8 +95,7 @@ def sil_command(args, out, err):
     status (0)."""
     import jax
 
-    from coopsat.analysis.stages import StageError
-    from coopsat.workflows.pipeline import check_run_folder, save_run, summary_lines
+    from coopsat.workflows.pipeline import check_run_folder, run_and_save, summary_lines
 
     # A few small programs per control period: inline on the CPU they cost half as much (set
     # before JAX's CPU client starts; the command's process is coopsat's own).
@@ -104,14 +103,12 @@ def sil_command(args, out, err):
     check_run_folder(args.out)
     on_start = None if args.quiet else (
         lambda pids: err("sil: flight software " + ", ".join(f"{n} pid {p}" for n, p in pids.items())))
-    try:
-        result = sil(args.scenario, overrides=args.set, kill=args.kill, pause=args.pause,
-                     externals=parse_externals(args.external), fault_command=args.fault_command, realtime=args.realtime,
-                     answer_s=args.answer_timeout, handshake_s=args.start_timeout,
-                     on_warning=lambda note: err(f"warning: {note}"), on_start=on_start)
-    except StageError as failed:
-        result = failed.result
-    save_run(result, args.out, figures=bool(args.figures), report=not args.no_report)  # StageError after writing
+    result = run_and_save(
+        lambda: sil(args.scenario, overrides=args.set, kill=args.kill, pause=args.pause,
+                    externals=parse_externals(args.external), fault_command=args.fault_command, realtime=args.realtime,
+                    answer_s=args.answer_timeout, handshake_s=args.start_timeout,
+                    on_warning=lambda note: err(f"warning: {note}"), on_start=on_start),
+        args.out, figures=bool(args.figures), report=not args.no_report)
     if args.quiet:
         return 0
     out(f"wrote {args.out}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")

@@ -16,7 +16,6 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from coopsat.geometry.quaternion import join, split
 
 MAX_DEGREE = 70
 """Highest degree (and order) shipped in ``data/egm2008_70.txt``."""
@@ -136,7 +135,7 @@ def harmonic_accel_ecef(r_ecef_m, c, s, gm_m3_s2, radius_m, axis=-1):
     s_coef = jnp.asarray(s)
     degree = c.shape[0] - 1
     a_f, b_f, c_f, d_f = (jnp.asarray(v) for v in _recursion_factors(degree))
-    x, y, z = split(jnp.asarray(r_ecef_m), axis)
+    x, y, z = jnp.moveaxis(jnp.asarray(r_ecef_m), axis, 0)
     r = jnp.sqrt(x * x + y * y + z * z)
     sx, ty, u = x / r, y / r, z / r
     ones = jnp.ones_like(r)
@@ -175,7 +174,7 @@ def harmonic_accel_ecef(r_ecef_m, c, s, gm_m3_s2, radius_m, axis=-1):
     g_u = jnp.sum(rho * jnp.sum(d_legendre * big_d, axis=1), axis=0)
     scale = gm_m3_s2 / (r * r)
     along_r = -radial - (sx * g_s + ty * g_t + u * g_u)
-    return join([scale * (along_r * sx + g_s), scale * (along_r * ty + g_t), scale * (along_r * u + g_u)], axis)
+    return jnp.stack([scale * (along_r * sx + g_s), scale * (along_r * ty + g_t), scale * (along_r * u + g_u)], axis=axis)
 
 
 def harmonic_potential(r_ecef_m, c, s, gm_m3_s2, radius_m, axis=-1):
@@ -190,7 +189,7 @@ def harmonic_potential(r_ecef_m, c, s, gm_m3_s2, radius_m, axis=-1):
     s_coef = jnp.asarray(s)
     degree = c.shape[0] - 1
     a_f, b_f, c_f, _ = (jnp.asarray(v) for v in _recursion_factors(degree))
-    x, y, z = split(jnp.asarray(r_ecef_m), axis)
+    x, y, z = jnp.moveaxis(jnp.asarray(r_ecef_m), axis, 0)
     r = jnp.sqrt(x * x + y * y + z * z)
     u = z / r
     cos_lat = jnp.sqrt(x * x + y * y) / r

@@ -71,7 +71,7 @@ class PlantParams(NamedTuple):
     chief: jnp.ndarray
 
 
-WRENCH_CHANNELS = ("torque_b", "wheel_torque_b", "force_eci", "force_b", "force_lvlh")
+WRENCH_CHANNELS = ("torque_b", "wheel_torque_b", "force_eci", "force_b", "force_lvlh", "accel_eci")
 """What actuators and disturbances may act through, each (3, n) (component-major in the loop):
 
 * ``torque_b`` — external torque on the body (thrusters, magnetorquers, environment), N·m;
@@ -83,7 +83,9 @@ WRENCH_CHANNELS = ("torque_b", "wheel_torque_b", "force_eci", "force_b", "force_
   :mod:`coopsat.geometry.frames`), N: thrusters held aligned with the chief's LVLH axes by the
   attitude control (the formation-flying papers' assumption). It is turned into ECI inside the
   derivative with the chief's current position and velocity (each RK4 stage), so it follows
-  the frame as it turns; the chief's own LVLH force is in its own frame.
+  the frame as it turns; the chief's own LVLH force is in its own frame;
+* ``accel_eci`` — acceleration in ECI components, m/s²: gravity beyond the central body's point
+  mass (harmonics, the Sun and the Moon), which acts whatever the mass.
 """
 
 _FORCE_CHANNELS = ("force_eci", "force_b", "force_lvlh")
@@ -200,4 +202,6 @@ def plant_derivative(x, wrench, params, gravity, axis=-1, attitude="rigid-body")
             force = force + lvlh_vector_to_eci(r_c, v_c, wrench["force_lvlh"], axis)
         if any(c in wrench for c in _FORCE_CHANNELS):
             dv = dv + force / params.mass_kg
+        if "accel_eci" in wrench:
+            dv = dv + wrench["accel_eci"]
     return PlantState(dq, dw, dh, dr, dv, d_angle)

@@ -23,7 +23,7 @@ from coopsat.geometry.quaternion import cross, quat_rotate_inverse
 
 
 
-def _lit_area(normals_b, areas_m2, u_b):
+def lit_area(normals_b, areas_m2, u_b):
     """``A_f max(n_f·û, 0)`` (F, n) and ``max(n_f·û, 0)`` for unit directions ``u_b`` (3, n)."""
     cos = jnp.maximum(jnp.einsum("kf,kn->fn", normals_b, u_b), 0.0)
     return areas_m2[:, None] * cos, cos
@@ -56,7 +56,7 @@ def facet_drag_torque_b(v_rel_b_m_s, density_kg_m3_, normals_b, areas_m2, centre
     """
     speed = jnp.linalg.norm(v_rel_b_m_s, axis=0)
     v_hat = v_rel_b_m_s / speed
-    projected, _ = _lit_area(normals_b, areas_m2, v_hat)
+    projected, _ = lit_area(normals_b, areas_m2, v_hat)
     lever = centres_b_m @ projected
     return cross(lever, -0.5 * density_kg_m3_ * cd * speed**2 * v_hat, 0)
 
@@ -86,7 +86,7 @@ def facet_srp_torque_b(sun_b, pressure_n_m2, normals_b, areas_m2, centres_b_m, s
     §17.2, eq. 17-12; Montenbruck & Gill eq. 3.72): absorbed and diffuse light push along the
     ray, specular and diffuse reflection along the normal.
     """
-    projected, cos = _lit_area(normals_b, areas_m2, sun_b)
+    projected, cos = lit_area(normals_b, areas_m2, sun_b)
     along_ray = centres_b_m @ (projected * (1.0 - specular)[:, None])
     along_normal = cross(centres_b_m, normals_b, 0) @ (2.0 * projected * (specular[:, None] * cos + diffuse[:, None] / 3.0))
     return -pressure_n_m2 * (cross(along_ray, sun_b, 0) + along_normal)

@@ -71,6 +71,7 @@ PLUGIN_MODULES = (
     "coopsat.plugins.disturbances",
     "coopsat.plugins.sensors",
     "coopsat.plugins.earth_environment",
+    "coopsat.plugins.orbit_environment",
     "coopsat.plugins.observation",
 )
 """Every module of coopsat that registers plug-ins (one line per module)."""

@@ -33,7 +33,8 @@ Fraction = Annotated[float, Field(ge=0, le=1)]
 
 class SolarRadiationPressureTable(Table):
     """``kind = "solar-radiation-pressure"``: cannonball SRP, ``F = P₁ (AU/r)² A (1 + reflectivity) r̂``,
-    the Sun being the central body of ``[orbit]``."""
+    about the Sun (the central body of ``[orbit]``) or about the Earth (the Sun from the analytic
+    ephemeris, dimmed by the Earth's shadow)."""
 
     kind: Literal["solar-radiation-pressure"]
     area_m2: Annotated[float, Field(gt=0, le=1e6)] | list[Annotated[float, Field(gt=0, le=1e6)]] = Field(
@@ -45,9 +46,12 @@ class SolarRadiationPressureTable(Table):
     pressure_1au_n_m2: float = Field(
         SOLAR_PRESSURE_1AU_N_M2, gt=0, le=1.0, description="Pressure on an absorber at 1 AU, N/m² (default 4.54e-6)."
     )
+    shadow: Literal["conical", "cylindrical"] = Field(
+        "conical", description="About the Earth: its shadow, with penumbra (conical) or the cylinder (no penumbra)."
+    )
 
 
-def _per_spacecraft(value, ctx, field):
+def per_spacecraft(value, ctx, field):
     import numpy as np
 
     v = np.asarray(value, dtype=float)
@@ -57,14 +61,23 @@ def _per_spacecraft(value, ctx, field):
 
 
 def _build_srp(table, ctx):
-    from coopsat.astro.constants import AU_M
+    from coopsat.astro.constants import AU_M, central_body_name
     from coopsat.environment.forces import SolarRadiationPressure
     from coopsat.plugins.force_actuators import require_translation
     from coopsat.sim.system import as_arrays
 
-    require_translation(ctx, "disturbances", "solar-radiation-pressure (the Sun as central body)")
-    area = _per_spacecraft(table.area_m2, ctx, "area_m2")
-    refl = _per_spacecraft(table.reflectivity, ctx, "reflectivity")
+    require_translation(ctx, "disturbances", "solar-radiation-pressure")
+    area = per_spacecraft(table.area_m2, ctx, "area_m2")
+    refl = per_spacecraft(table.reflectivity, ctx, "reflectivity")
+    body = central_body_name(ctx.scenario.orbit.mu_m3_s2)
+    if body == "EARTH":
+        from coopsat.environment.orbit_forces import EarthSolarRadiationPressure
+        from coopsat.plugins.earth_environment import epoch
+
+        arrays = (area, refl, table.pressure_1au_n_m2, AU_M, epoch(ctx)[0])
+        return EarthSolarRadiationPressure(*as_arrays(arrays), shadow=table.shadow)
+    if body != "SUN":
+        raise DesignError("disturbances: solar-radiation-pressure needs the Sun or the Earth as the central body of [orbit]")
     return SolarRadiationPressure(*as_arrays((area, refl, table.pressure_1au_n_m2, AU_M)))
 
 

@@ -109,7 +109,7 @@ def _per_facet(value, count, field):
     return np.broadcast_to(v, (count,)).copy()
 
 
-def _facet_arrays(table):
+def facet_arrays(table):
     """normals (3, F) unit, areas (F,), centres (3, F)."""
     import numpy as np
 
@@ -124,7 +124,7 @@ def _build_aero(table, ctx):
     from coopsat.sim.system import as_arrays
 
     require_earth_orbit(ctx, "disturbances: aerodynamic-torque")
-    return AerodynamicTorque(*as_arrays((*_facet_arrays(table), table.cd)))
+    return AerodynamicTorque(*as_arrays((*facet_arrays(table), table.cd)))
 
 
 def _build_srp(table, ctx):
@@ -132,7 +132,7 @@ def _build_srp(table, ctx):
     from coopsat.sim.system import as_arrays
 
     require_earth_orbit(ctx, "disturbances: solar-pressure-torque")
-    normals, areas, centres = _facet_arrays(table)
+    normals, areas, centres = facet_arrays(table)
     specular = _per_facet(table.specular, areas.size, "specular")
     diffuse = _per_facet(table.diffuse, areas.size, "diffuse")
     if (specular + diffuse > 1.0).any():

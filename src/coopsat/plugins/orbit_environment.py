@@ -15,7 +15,7 @@ from coopsat.astro.constants import MU_EARTH_M3_S2, SOLAR_PRESSURE_1AU_N_M2
 from coopsat.plugins import DesignError, Plugin, register
 from coopsat.plugins.disturbances import per_spacecraft
 from coopsat.plugins.earth_environment import Facets, epoch
-from coopsat.plugins.tables import Table
+from coopsat.plugins.tables import Record, Table
 
 Positive = Annotated[float, Field(gt=0, le=1e6)]
 Fraction = Annotated[float, Field(ge=0, le=1)]
@@ -51,7 +51,7 @@ class DragTable(Table):
     area_m2: Positive | list[Positive] | None = Field(
         None, description="Cannonball area facing the flow, m²: one value, or one per spacecraft."
     )
-    facets: list[tuple[float, float, float, float, float, float, float]] | None = Field(
+    facets: list[Record(float, float, float, float, float, float, float)] | None = Field(
         None, description="Instead of area_m2, flat facets [nx, ny, nz, area_m2, cx, cy, cz] (as aerodynamic-torque): "
         "the area facing the flow follows the attitude.",
     )

@@ -295,8 +295,7 @@ def _cmd_campaign_report(args):
 def _cmd_bench(args):
     from coopsat.workflows.bench import run_benchmarks
 
-    run_benchmarks(sizes=args.sizes, steps=args.steps, batch=args.batch, native=not args.no_native)
-    return 0
+    return run_benchmarks(args.sizes, args.steps, args.batch, not args.no_native, args.orbit_sizes) or 0
 
 
 _SET_HELP = "override a field before validation, e.g. --set controller.period_s=0.01 (repeatable)"
@@ -525,6 +524,7 @@ def _add_bench(sub):
     bench.add_argument("--sizes", type=int, nargs="+", default=[1, 5, 1000, 10000], help="formation sizes N")
     bench.add_argument("--steps", type=int, default=None, help="ticks per timed run (default: scaled to N)")
     bench.add_argument("--batch", type=int, default=1000, help="runs of N = 5 in one batch (0: skip)")
+    bench.add_argument("--orbit-sizes", type=int, nargs="*", default=[100, 1000], help="orbit rows' sizes (none: skip)")
     bench.add_argument("--no-native", action="store_true", help="keep the whole loop in XLA (no native CPU kernel)")
     bench.set_defaults(func=_cmd_bench)
 

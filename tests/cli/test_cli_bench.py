@@ -10,7 +10,7 @@ import coopsat.workflows.bench as bench
 
 
 def test_bench_runs_small_and_quotes_the_ceiling():
-    proc = subprocess.run([sys.executable, "-m", "coopsat.cli", "bench", "--sizes", "5", "--steps", "200", "--batch", "0"],
+    proc = subprocess.run([sys.executable, "-m", "coopsat.cli", "bench", "--sizes", "5", "--steps", "200", "--batch", "0", "--orbit-sizes", "2"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
     # Installed from a wheel (CI), there is no benchmarks/ beside the package: the line says so.
@@ -21,3 +21,7 @@ def test_bench_runs_small_and_quotes_the_ceiling():
     assert all(float(r[6]) > 0.0 for r in rows)  # M spacecraft-steps/s
     if from_source:
         assert 0.0 < float(rows[1][-1]) < 2.0  # fraction of the ceiling measured beside it
+    # The orbit rows: J2, then every perturbation quoted as a multiple of the J2 tick.
+    orbit = [line.split() for line in proc.stdout.splitlines() if line.startswith("orbit ")]
+    assert [r[1] for r in orbit] == ["J2", "all"]
+    assert float(orbit[1][-4].rstrip("×")) > 0.0

@@ -13,6 +13,7 @@ from functools import lru_cache
 from importlib import resources
 from typing import NamedTuple
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -122,56 +123,60 @@ def harmonic_accel_ecef(r_ecef_m, c, s, gm_m3_s2, radius_m, axis=-1):
     Notes
     -----
     Pines (1973), normalised as in Montenbruck & Gill, *Satellite Orbits*, §3.2 (eq. 3.13 for
-    the potential). With ``ρ_n = (R/r)^n`` the potential is
-    ``U = GM/r Σ_n ρ_n Σ_m Ā_nm(u) (C̄_nm Re w^m + S̄_nm Im w^m)``, ``w = s + i t``. Taking
+    the potential). With ``q = R/r`` the potential is
+    ``U = GM/r Σ_n Σ_m Ã_nm (C̄_nm Re w^m + S̄_nm Im w^m)``, ``w = s + i t``, where
+    ``Ã_nm = q^n Ā_nm(u)`` obeys the recursions of ``Ā`` with each step in n scaled by q. Taking
     ``r, s, t, u`` as independent variables ``f(r, s, t, u)``, the gradient is
     ``∇U = (f_r − (s f_s + t f_t + u f_u)/r) r̂ + (f_s, f_t, f_u)/r``, with
     ``∂Re w^m/∂s = m Re w^{m−1}``, ``∂Im w^m/∂s = m Im w^{m−1}``, ``∂Re w^m/∂t = −m Im w^{m−1}``,
     ``∂Im w^m/∂t = m Re w^{m−1}`` and ``dĀ_nm/du = d_nm Ā_{n,m+1}`` with
     ``d_nm = √((2 − δ_m0)/2 · (n − m)(n + m + 1))`` (the ratio of the normalisations of
     ``d^m P_n/du^m`` and ``d^{m+1} P_n/du^{m+1}``).
+
+    Each degree is one row over its orders ``m = 0 … n`` (no padding to N: the triangle is
+    half the square); every operation is elementwise over the spacecraft, so XLA fuses a
+    degree's work into a few loops over them.
     """
-    c = jnp.asarray(c)
-    s_coef = jnp.asarray(s)
-    degree = c.shape[0] - 1
-    a_f, b_f, c_f, d_f = (jnp.asarray(v) for v in _recursion_factors(degree))
+    degree = jnp.shape(c)[0] - 1
+    a_f, b_f, c_f, d_f = (jnp.asarray(f) for f in _recursion_factors(degree))
     x, y, z = jnp.moveaxis(jnp.asarray(r_ecef_m), axis, 0)
     r = jnp.sqrt(x * x + y * y + z * z)
-    sx, ty, u = x / r, y / r, z / r
-    ones = jnp.ones_like(r)
+    sx, ty, u, q = x / r, y / r, z / r, radius_m / r
+    lead = (slice(None),) + (None,) * r.ndim
 
-    # w^m = (s + i t)^m, m = 0 … N, stacked along a new leading axis.
-    re, im = [ones], [jnp.zeros_like(r)]
+    # w^m = (s + i t)^m, m = 0 … N, and w^{m−1} (zero at m = 0, where the factor m kills it).
+    re, im = [jnp.ones_like(r)], [jnp.zeros_like(r)]
     for _ in range(degree):
         re, im = re + [sx * re[-1] - ty * im[-1]], im + [sx * im[-1] + ty * re[-1]]
     re, im = jnp.stack(re), jnp.stack(im)
-    re_1 = jnp.concatenate([jnp.zeros_like(re[:1]), re[:-1]])  # Re w^{m−1} (0 at m = 0, where m·… vanishes)
+    re_1 = jnp.concatenate([jnp.zeros_like(re[:1]), re[:-1]])
     im_1 = jnp.concatenate([jnp.zeros_like(im[:1]), im[:-1]])
+    orders = jnp.arange(degree + 1, dtype=r.dtype)[lead]
+    c, s = jnp.asarray(c), jnp.asarray(s)
 
-    # Ā_nm(u): rows n = 0 … N, each over m = 0 … N (zero above the diagonal).
-    ex = (slice(None),) + (None,) * r.ndim
-    rows = [jnp.zeros((degree + 1,) + r.shape).at[0].set(ones)]
-    for n in range(1, degree + 1):
-        shifted = jnp.concatenate([jnp.zeros_like(rows[-1][:1]), rows[-1][:-1]])  # Ā_{n-1,m-1}
-        sectoral = jnp.where(jnp.arange(degree + 1) == n, c_f[n], 0.0)[ex] * shifted
-        prev2 = rows[-2] if n >= 2 else jnp.zeros_like(rows[-1])
-        rows.append(a_f[n][ex] * u * rows[-1] - b_f[n][ex] * prev2 + sectoral)
-    legendre = jnp.stack(rows[2:])  # (N−1, N+1, ...): degrees 2 … N
-    d_legendre = d_f[2:][(slice(None),) + ex] * jnp.concatenate(
-        [legendre[:, 1:], jnp.zeros_like(legendre[:, :1])], axis=1
-    )  # dĀ_nm/du = d_nm Ā_{n,m+1}
+    def shift_up(row):  # Ã_{n,m+1} at m (zero at m = N)
+        return jnp.concatenate([row[1:], jnp.zeros_like(row[:1])])
 
-    cn, sn = c[2:][(slice(None),) + ex], s_coef[2:][(slice(None),) + ex]
-    m = jnp.arange(degree + 1, dtype=r.dtype)[ex]
-    big_d = cn * re + sn * im
-    big_e = cn * re_1 + sn * im_1
-    big_f = sn * re_1 - cn * im_1
-    rho = (radius_m / r) ** jnp.arange(2, degree + 1, dtype=r.dtype)[ex]  # ρ_n, (N−1, ...)
-    n_plus_1 = jnp.arange(3, degree + 2, dtype=r.dtype)[ex]
-    radial = jnp.sum(rho * n_plus_1 * jnp.sum(legendre * big_d, axis=1), axis=0)
-    g_s = jnp.sum(rho * jnp.sum(m * legendre * big_e, axis=1), axis=0)
-    g_t = jnp.sum(rho * jnp.sum(m * legendre * big_f, axis=1), axis=0)
-    g_u = jnp.sum(rho * jnp.sum(d_legendre * big_d, axis=1), axis=0)
+    def degree_step(n, carry):
+        """Row n of Ã from rows n − 1 and n − 2, and its terms of the four sums."""
+        prev2, prev, radial, g_s, g_t, g_u = carry
+        sectoral = jnp.concatenate([jnp.zeros_like(prev[:1]), prev[:-1]])  # Ã_{n−1,m−1}
+        row = q * (a_f[n][lead] * u * prev - b_f[n][lead] * q * prev2 + jnp.where(orders == n, c_f[n], 0.0) * sectoral)
+        cn, sn = c[n][lead], s[n][lead]
+        big_d = cn * re + sn * im
+        radial = radial + (n + 1) * jnp.sum(row * big_d, axis=0)
+        g_s = g_s + jnp.sum(orders * row * (cn * re_1 + sn * im_1), axis=0)
+        g_t = g_t + jnp.sum(orders * row * (sn * re_1 - cn * im_1), axis=0)
+        g_u = g_u + jnp.sum(d_f[n][lead] * shift_up(row) * big_d, axis=0)
+        return prev, row, radial, g_s, g_t, g_u
+
+    # Rows 0 and 1 (Ã_00 = 1; Ã_10 = √3 u q, Ã_11 = √3 q) start the loop over degrees 2 … N, a
+    # fori_loop so that the compiled program does not grow with the degree.
+    zeros = jnp.zeros((degree + 1,) + r.shape, dtype=r.dtype)
+    row0 = zeros.at[0].set(1.0)
+    row1 = zeros.at[0].set(np.sqrt(3.0) * u * q).at[1].set(np.sqrt(3.0) * q)
+    zero = jnp.zeros_like(r)
+    _, _, radial, g_s, g_t, g_u = jax.lax.fori_loop(2, degree + 1, degree_step, (row0, row1, zero, zero, zero, zero))
     scale = gm_m3_s2 / (r * r)
     along_r = -radial - (sx * g_s + ty * g_t + u * g_u)
     return jnp.stack([scale * (along_r * sx + g_s), scale * (along_r * ty + g_t), scale * (along_r * u + g_u)], axis=axis)

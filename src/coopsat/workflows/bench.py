@@ -11,6 +11,11 @@ on the ring, clip, RK4, renormalisation) as one fused, vectorised numba loop ove
 component-major rows (``benchmarks/ceiling.py``; needs numba and a source checkout), measured
 in the same sitting on one thread and on two. A batch of B runs of N = 5 is compared with the
 ceiling's ring of B·5 spacecraft (the same work per spacecraft-step: two neighbours each).
+
+Orbit rows: N free spacecraft spread along one 500 km orbit, 10 s ticks, under J2 only and
+under every perturbation of a real low orbit (EGM2008 to degree and order 20, Harris–Priester
+drag, the Sun and the Moon, radiation pressure with the conical shadow), each quoted as a
+multiple of the J2 row's time per tick (docs/leo.md).
 Prints numbers; asserts nothing (timings are not tests).
 """
 
@@ -43,6 +48,45 @@ def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=T
     return first.compile_s, best, (batch or 1) * n * n_records * record_ticks / best
 
 
+PERTURBATIONS = [
+    {"kind": "gravity-field", "degree": 20},
+    {"kind": "drag", "area_m2": 0.1, "density": "harris-priester", "f107": 150.0},
+    {"kind": "third-body"},
+    {"kind": "solar-radiation-pressure", "area_m2": 0.1, "reflectivity": 0.3},
+]
+"""The orbit rows' "all perturbations" case."""
+
+
+def orbit_scenario(n, perturbed, ticks, dt_s=10.0):
+    """N free spacecraft evenly spread in mean anomaly on one 500 km orbit (a Scenario)."""
+    from coopsat.scenarios.document import Scenario
+
+    spacecraft = [
+        {"elements": {"a_m": 6878137.0, "e": 0.001, "i_deg": 51.6, "raan_deg": 0.0, "argp_deg": 0.0,
+                      "mean_anomaly_deg": 360.0 * k / n}}
+        for k in range(n)
+    ]
+    return Scenario.from_dict({
+        "name": f"bench-orbit-{n}",
+        "sim": {"t_final_s": dt_s * ticks, "dt_s": dt_s, "record_interval_s": dt_s * ticks},
+        "orbit": {"gravity": "two-body" if perturbed else "j2", "epoch_utc": "2024-03-20T00:00:00"},
+        "spacecraft_defaults": {"inertia_kgm2": [1.0, 1.0, 1.0], "mass_kg": 10.0},
+        "spacecraft": spacecraft,
+        "disturbances": PERTURBATIONS if perturbed else [],
+    })
+
+
+def measure_orbit(n, perturbed, ticks, repeats=3):
+    """(compile s, best run s) for ``ticks`` ticks of :func:`orbit_scenario`."""
+    from coopsat.sim.engine import simulate
+    from coopsat.workflows.pipeline import prepare
+
+    built = prepare(orbit_scenario(n, perturbed, ticks).model)
+    first = simulate(built.system, built.n_records, built.record_interval_s)
+    best = min(simulate(built.system, built.n_records, built.record_interval_s).run_s for _ in range(repeats))
+    return first.compile_s, best
+
+
 def load_ceiling():
     """The ceiling kernel module (``benchmarks/ceiling.py`` of a source checkout), or the
     reason it cannot be loaded."""
@@ -63,10 +107,11 @@ def load_ceiling():
     return module, None
 
 
-def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=True):
+def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=True, orbit_sizes=(100, 1000)):
     """Print a throughput table for each case and size, then the batched (campaign) lines, with
     each consensus row's fraction of the ceiling measured alongside. ``native=False``: the
-    whole loop in XLA (no native kernel), for before/after comparisons in one sitting."""
+    whole loop in XLA (no native kernel), for before/after comparisons in one sitting.
+    ``orbit_sizes``: formation sizes of the orbit rows (empty: none)."""
     from coopsat.core import runtime
 
     runtime.enable()  # float64 before the cases' arrays are made (they are built here, not by a scenario)
@@ -112,3 +157,13 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
     if batch:
         for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
             row(label, 5, controller, batch)
+    for n in orbit_sizes:
+        ticks = steps or 200
+        times = {}
+        for perturbed, label in ((False, "orbit J2"), (True, "orbit all")):
+            compile_s, run_s = measure_orbit(n, perturbed, ticks)
+            times[perturbed] = run_s
+            line = f"{label:<14}{n:>7}{1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{n * ticks / run_s / 1e6:>14.2f}"
+            if perturbed:
+                line += f"   {run_s / times[False]:.1f}× the J2 tick"
+            print(line, flush=True)

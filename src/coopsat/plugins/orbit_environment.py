@@ -12,7 +12,7 @@ from typing import Annotated, Literal
 from pydantic import Field, ValidationError, model_validator
 
 from coopsat.astro.constants import MU_EARTH_M3_S2, SOLAR_PRESSURE_1AU_N_M2
-from coopsat.plugins import DesignError, Plugin, register
+from coopsat.plugins import DesignCheck, DesignError, Plugin, register
 from coopsat.plugins.disturbances import per_spacecraft
 from coopsat.plugins.earth_environment import Facets, epoch
 from coopsat.plugins.tables import Record, Table
@@ -163,6 +163,31 @@ def _build_drag(table, ctx):
     return Drag(atmosphere, *as_arrays((cd, area, normals, areas)))
 
 
+EPHEMERIS_LIMITS_DEG = {"sun": 0.2, "moon": 0.2}
+"""Largest direction differences from DE421 within the analytic series' accuracy, degrees:
+the Sun's fixed perigee drifts 0.32° a century from J2000 (0.17° by 2050), the Moon's
+truncated series errs by up to 0.09° (tests/unit/test_ephemeris.py)."""
+
+
+def check_ephemeris(table, ctx):
+    """The analytic Sun and Moon against JPL DE421 over the run (the ``ephemeris`` extra)."""
+    from coopsat.astro.ephemeris import ephemeris_difference
+
+    jd0 = epoch(ctx)[0]
+    try:
+        diff = ephemeris_difference(jd0, jd0 + ctx.scenario.sim.t_final_s / 86400.0, samples=9)
+    except ValueError as exc:  # outside DE421's 1899–2053
+        return DesignCheck("ephemeris", True, f"analytic Sun and Moon not checked against DE421: {exc}")
+    if diff is None:
+        return DesignCheck("ephemeris", True, "analytic Sun and Moon not checked (install coopsat[ephemeris] for JPL DE421)")
+    ok = diff.sun_direction_deg <= EPHEMERIS_LIMITS_DEG["sun"] and diff.moon_direction_deg <= EPHEMERIS_LIMITS_DEG["moon"]
+    note = (f"analytic ephemeris vs JPL DE421 over the run: Sun {diff.sun_direction_deg:.4f}° "
+            f"({diff.sun_position_m / 1e3:.0f} km), Moon {diff.moon_direction_deg:.4f}° ({diff.moon_position_m / 1e3:.0f} km)")
+    metrics = {"ephemeris_sun_deg": diff.sun_direction_deg, "ephemeris_moon_deg": diff.moon_direction_deg,
+               "ephemeris_moon_m": diff.moon_position_m}
+    return DesignCheck("ephemeris", ok, note + ("" if ok else " — beyond the series' accuracy"), metrics, diff)
+
+
 register(Plugin("disturbance", "gravity-field", GravityFieldTable, _build_gravity_field))
-register(Plugin("disturbance", "third-body", ThirdBodyTable, _build_third_body))
+register(Plugin("disturbance", "third-body", ThirdBodyTable, _build_third_body, (check_ephemeris,)))
 register(Plugin("disturbance", "drag", DragTable, _build_drag))

@@ -78,6 +78,8 @@ CASES = [
     ("f107-missing-with-harris-priester", scenario("drag", HP), ["drag", "harris-priester", "f107"]),
     ("f107-with-exponential", scenario("drag", "area_m2 = 1.0\nf107 = 150.0"), ["f107", "harris-priester"]),
     ("hp-exponent-above-six", scenario("drag", HP + "\nf107 = 150.0\nhp_exponent = 8.0"), ["disturbances[0].hp_exponent"]),
+    ("hp-exponent-with-exponential", scenario("drag", "area_m2 = 1.0\nhp_exponent = 6.0"), ["hp_exponent", "harris-priester"]),
+    ("density-scale-with-harris-priester", scenario("drag", HP + "\nf107 = 150.0\ndensity_scale = 2.0"), ["density_scale", "exponential"]),
     ("density-scale-zero", scenario("drag", "area_m2 = 1.0\ndensity_scale = 0.0"), ["disturbances[0].density_scale"]),
     # third-body
     ("unknown-third-body", scenario("third-body", 'bodies = ["sun", "jupiter"]'), ["disturbances[0].bodies[1]", "'moon'"]),

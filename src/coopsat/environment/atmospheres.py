@@ -10,6 +10,7 @@ import jax.numpy as jnp
 from coopsat.astro import atmosphere, harris_priester
 from coopsat.astro.ephemeris import sun_position_eme2000_m
 from coopsat.core.parts import part
+from coopsat.environment.earth_torques import body_columns_m
 
 
 @part()
@@ -51,6 +52,6 @@ class HarrisPriesterAtmosphere:
     jd0_tt: jnp.ndarray
 
     def density_kg_m3(self, t, r_eci_m):
-        r_sun = sun_position_eme2000_m(self.jd0_tt + t / 86400.0)[:, None]
+        r_sun = body_columns_m(sun_position_eme2000_m(self.jd0_tt + t / 86400.0))
         table = (self.heights_km, self.rho_min_kg_m3, self.rho_max_kg_m3)
         return harris_priester.density_kg_m3(r_eci_m, r_sun, table, self.n_exponent, 0)

@@ -23,6 +23,13 @@ from coopsat.geometry.quaternion import cross, quat_rotate_inverse
 
 
 
+def body_columns_m(position_m):
+    """A body's position from an ephemeris evaluated at the stage time, as loop columns: (3, 1)
+    for one time, (3, n) when a pulsed tick gives each spacecraft its own time (n,)."""
+    columns = jnp.moveaxis(position_m, -1, 0)
+    return columns[:, None] if columns.ndim == 1 else columns
+
+
 def lit_area(normals_b, areas_m2, u_b):
     """``A_f max(n_f·û, 0)`` (F, n) and ``max(n_f·û, 0)`` for unit directions ``u_b`` (3, n)."""
     cos = jnp.maximum(jnp.einsum("kf,kn->fn", normals_b, u_b), 0.0)
@@ -146,7 +153,7 @@ class SolarPressureTorque(Stateless):
     jd0: jnp.ndarray
 
     def wrench(self, t, x, state):
-        r_sun = sun_position_eci_m(self.jd0 + t / 86400.0)[:, None]
+        r_sun = body_columns_m(sun_position_eci_m(self.jd0 + t / 86400.0))
         to_sun = r_sun - x.r_eci
         distance = jnp.linalg.norm(to_sun, axis=0)
         s_eci = to_sun / distance

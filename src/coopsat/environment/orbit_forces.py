@@ -21,7 +21,7 @@ from coopsat.astro.ephemeris import (
 )
 from coopsat.astro.gravity_field import harmonic_accel_ecef
 from coopsat.core.parts import OutputSpec, part
-from coopsat.environment.earth_torques import lit_area
+from coopsat.environment.earth_torques import body_columns_m, lit_area
 from coopsat.environment.torques import Stateless
 from coopsat.geometry.quaternion import cross, quat_rotate_inverse
 
@@ -88,7 +88,7 @@ class ThirdBodies(Stateless):
         accel = jnp.zeros_like(x.r_eci)
         for k, body in enumerate(self.bodies):
             position = sun_position_eme2000_m(jd) if body == "sun" else moon_position_eme2000_m(jd)
-            accel = accel + third_body_accel(x.r_eci, position[:, None], self.mu_m3_s2[k], 0)
+            accel = accel + third_body_accel(x.r_eci, body_columns_m(position), self.mu_m3_s2[k], 0)
         return {"accel_eci": accel}
 
     def record(self, t, x, state):
@@ -198,7 +198,7 @@ class EarthSolarRadiationPressure(Stateless):
     shadow: str = "conical"
 
     def _force_and_light(self, t, x):
-        r_sun = sun_position_eme2000_m(self.jd0_tt + t / SECONDS_PER_DAY)[:, None]
+        r_sun = body_columns_m(sun_position_eme2000_m(self.jd0_tt + t / SECONDS_PER_DAY))
         light = _SHADOWS[self.shadow](x.r_eci, r_sun, 0)
         from_sun = x.r_eci - r_sun
         distance2 = jnp.sum(from_sun * from_sun, axis=0)

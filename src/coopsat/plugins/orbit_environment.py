@@ -66,9 +66,10 @@ class DragTable(Table):
             raise ValueError("give area_m2 (a cannonball) or facets, one of them")
         if self.density not in DENSITY_MODELS:
             raise ValueError(f"density: unknown model '{self.density}' (known: {', '.join(DENSITY_MODELS)})")
+        # A field of the other model away from its default (a resolved scenario writes every default back).
         only = {"f107": "harris-priester", "hp_exponent": "harris-priester", "density_scale": "exponential"}
         for field, model in only.items():
-            if field in self.model_fields_set and self.density != model:
+            if getattr(self, field) != type(self).model_fields[field].default and self.density != model:
                 raise ValueError(f"{field} is only read with density = '{model}'")
         if self.facets is not None:
             try:

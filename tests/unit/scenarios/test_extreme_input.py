@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import coopsat
-from coopsat.plugins.earth_environment import AerodynamicTorqueTable, _facet_arrays
+from coopsat.plugins.earth_environment import AerodynamicTorqueTable, facet_arrays
 from coopsat.plugins.tables import arithmetic_message, extreme_values, vector_norm
 from coopsat.scenarios import hints
 from coopsat.scenarios.build import build
@@ -101,7 +101,7 @@ def test_facet_normals_of_any_size_are_normalised_without_overflow(no_warnings):
     table = AerodynamicTorqueTable.model_validate(
         {"kind": "aerodynamic-torque", "facets": [[1e308, 1e308, 0.0, 0.1, 0.0, 0.0, 0.0], [0.0, 5e-324, 0.0, 0.1, 0.0, 0.0, 0.0]]}
     )
-    normals, _, _ = _facet_arrays(table)
+    normals, _, _ = facet_arrays(table)
     np.testing.assert_allclose(normals.T, [[2**-0.5, 2**-0.5, 0.0], [0.0, 1.0, 0.0]], rtol=1e-15)
 
 

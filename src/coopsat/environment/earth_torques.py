@@ -30,6 +30,12 @@ def body_columns_m(position_m):
     return columns[:, None] if columns.ndim == 1 else columns
 
 
+def relative_wind_eci(r_eci_m, v_eci_m_s):
+    """Velocity relative to an atmosphere turning with the Earth, ``v − ω_E × r``, m/s, (3, n)."""
+    omega = jnp.asarray([0.0, 0.0, OMEGA_EARTH_RAD_S])[:, None]
+    return v_eci_m_s - cross(omega, r_eci_m, 0)
+
+
 def lit_area(normals_b, areas_m2, u_b):
     """``A_f max(n_f·û, 0)`` (F, n) and ``max(n_f·û, 0)`` for unit directions ``u_b`` (3, n)."""
     cos = jnp.maximum(jnp.einsum("kf,kn->fn", normals_b, u_b), 0.0)
@@ -117,8 +123,7 @@ class AerodynamicTorque(Stateless):
     cd: jnp.ndarray
 
     def wrench(self, t, x, state):
-        omega_earth = jnp.asarray([0.0, 0.0, OMEGA_EARTH_RAD_S])[:, None]
-        v_rel = x.v_eci - cross(omega_earth, x.r_eci, 0)
+        v_rel = relative_wind_eci(x.r_eci, x.v_eci)
         rho = density_kg_m3(altitude_m(x.r_eci, 0))
         torque = facet_drag_torque_b(quat_rotate_inverse(x.q_bi, v_rel, 0), rho, self.normals_b, self.areas_m2, self.centres_b_m, self.cd)
         return {"torque_b": torque}

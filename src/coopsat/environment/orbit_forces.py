@@ -11,7 +11,7 @@ TT (the 69 s by which UTC lags TT move the Moon by 0.01°: docs/leo.md).
 
 import jax.numpy as jnp
 
-from coopsat.astro.earth import OMEGA_EARTH_RAD_S, ecef_to_eci, eci_to_ecef, rotation_angle_rad
+from coopsat.astro.earth import ecef_to_eci, eci_to_ecef, rotation_angle_rad
 from coopsat.astro.ephemeris import (
     moon_position_eme2000_m,
     shadow_fraction_conical,
@@ -21,9 +21,9 @@ from coopsat.astro.ephemeris import (
 )
 from coopsat.astro.gravity_field import harmonic_accel_ecef
 from coopsat.core.parts import OutputSpec, part
-from coopsat.environment.earth_torques import body_columns_m, lit_area
+from coopsat.environment.earth_torques import body_columns_m, lit_area, relative_wind_eci
 from coopsat.environment.torques import Stateless
-from coopsat.geometry.quaternion import cross, quat_rotate_inverse
+from coopsat.geometry.quaternion import quat_rotate_inverse
 
 SECONDS_PER_DAY = 86400.0
 
@@ -96,12 +96,6 @@ class ThirdBodies(Stateless):
 
     def output_specs(self):
         return {"third_body_accel": OutputSpec(("component",), "m s-2", "ECI", "third-body acceleration at the sample")}
-
-
-def relative_wind_eci(r_eci_m, v_eci_m_s):
-    """Velocity relative to an atmosphere turning with the Earth, ``v − ω_E × r``, m/s, (3, n)."""
-    omega = jnp.asarray([0.0, 0.0, OMEGA_EARTH_RAD_S])[:, None]
-    return v_eci_m_s - cross(omega, r_eci_m, 0)
 
 
 def drag_force_eci(v_rel_eci_m_s, density_kg_m3, cd_area_m2):

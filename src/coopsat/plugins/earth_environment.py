@@ -14,7 +14,8 @@ from coopsat.astro.constants import AU_M, MU_EARTH_M3_S2, SOLAR_PRESSURE_1AU_N_M
 from coopsat.plugins import DesignError, Plugin, register
 from coopsat.plugins.tables import Bounded3, Record, Table, vector_norm
 
-_FACET = Record(float, float, float, float, float, float, float)
+FACET = Record(float, float, float, float, float, float, float)
+"""One flat facet as a scenario row: [nx, ny, nz, area_m2, cx, cy, cz]."""
 
 Fraction = Annotated[float, Field(ge=0, le=1)]
 
@@ -22,7 +23,7 @@ Fraction = Annotated[float, Field(ge=0, le=1)]
 class Facets(Table):
     """The surface: flat facets given as ``[nx, ny, nz, area_m2, cx, cy, cz]``."""
 
-    facets: list[_FACET] = Field(
+    facets: list[FACET] = Field(
         min_length=1,
         description="Flat facets, one per row: [nx, ny, nz, area_m2, cx, cy, cz] — outward normal (body axes; "
         "normalised), area in m², centre of pressure relative to the centre of mass, m, body axes.",

@@ -11,14 +11,13 @@ from typing import Annotated, Literal
 
 from pydantic import Field, ValidationError, model_validator
 
-from coopsat.astro.constants import MU_EARTH_M3_S2, SOLAR_PRESSURE_1AU_N_M2
+from coopsat.astro.constants import central_body_name
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
 from coopsat.plugins.disturbances import per_spacecraft
-from coopsat.plugins.earth_environment import Facets, epoch
-from coopsat.plugins.tables import Record, Table
+from coopsat.plugins.earth_environment import FACET, Facets, epoch
+from coopsat.plugins.tables import Table
 
 Positive = Annotated[float, Field(gt=0, le=1e6)]
-Fraction = Annotated[float, Field(ge=0, le=1)]
 
 
 class GravityFieldTable(Table):
@@ -51,7 +50,7 @@ class DragTable(Table):
     area_m2: Positive | list[Positive] | None = Field(
         None, description="Cannonball area facing the flow, m²: one value, or one per spacecraft."
     )
-    facets: list[Record(float, float, float, float, float, float, float)] | None = Field(
+    facets: list[FACET] | None = Field(
         None, description="Instead of area_m2, flat facets [nx, ny, nz, area_m2, cx, cy, cz] (as aerodynamic-torque): "
         "the area facing the flow follows the attitude.",
     )
@@ -110,7 +109,7 @@ def require_earth_translation(ctx, kind, force):
     where = f"disturbances: {kind}"
     if orbit is None:
         raise DesignError(f"{where} needs an [orbit] table (it acts on the orbit about the Earth)")
-    if abs(orbit.mu_m3_s2 / MU_EARTH_M3_S2 - 1.0) > 0.01:
+    if central_body_name(orbit.mu_m3_s2) != "EARTH":
         raise DesignError(f"{where} models the Earth's environment; [orbit] mu_m3_s2 = {orbit.mu_m3_s2:.6g} is not the Earth's")
     if force:
         from coopsat.plugins.force_actuators import require_translation

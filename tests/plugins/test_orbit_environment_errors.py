@@ -88,7 +88,6 @@ CASES = [
     # solar-radiation-pressure about the Earth
     ("unknown-shadow", scenario("solar-radiation-pressure", SRP + '\nshadow = "none"'), ["disturbances[0].shadow", "'conical'"]),
     ("srp-mass-missing", scenario("solar-radiation-pressure", SRP, mass=""), ["mass_kg", "sat1"]),
-    ("srp-about-mars", scenario("solar-radiation-pressure", SRP, mu=4.282837e13), ["solar-radiation-pressure", "the Sun or the Earth"]),
 ]
 
 # Each kind needs the Earth: about the Sun, or with no [orbit] at all, it is an error naming it.

@@ -69,15 +69,13 @@ def _build_srp(table, ctx):
     require_translation(ctx, "disturbances", "solar-radiation-pressure")
     area = per_spacecraft(table.area_m2, ctx, "area_m2")
     refl = per_spacecraft(table.reflectivity, ctx, "reflectivity")
-    body = central_body_name(ctx.scenario.orbit.mu_m3_s2)
-    if body == "EARTH":
+    if central_body_name(ctx.scenario.orbit.mu_m3_s2) == "EARTH":
         from coopsat.environment.orbit_forces import EarthSolarRadiationPressure
         from coopsat.plugins.earth_environment import epoch
 
         arrays = (area, refl, table.pressure_1au_n_m2, AU_M, epoch(ctx)[0])
         return EarthSolarRadiationPressure(*as_arrays(arrays), shadow=table.shadow)
-    if body != "SUN":
-        raise DesignError("disturbances: solar-radiation-pressure needs the Sun or the Earth as the central body of [orbit]")
+    # About any other body, that body is the light source: the Sun of heliocentric runs (SPEC §4).
     return SolarRadiationPressure(*as_arrays((area, refl, table.pressure_1au_n_m2, AU_M)))
 
 

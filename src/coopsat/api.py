@@ -441,8 +441,8 @@ def export(run: Result | str | Path, format: str, out: str | Path | None = None)
     run : Result, str or Path
         A run in memory, or a run folder written by ``coopsat run``.
     format : {"oem", "aem", "czml"}
-        ``oem``: orbits (EME2000, km, UTC); ``aem``: attitude quaternions (EME2000 to
-        SC_BODY_1, A2B, scalar first); ``czml``: a Cesium scene of an Earth orbit.
+        ``oem``: orbits (the run's frame and clock, GCRF and TT by default; km); ``aem``:
+        attitude quaternions (the run's inertial frame to SC_BODY_1, A2B, scalar first); ``czml``: a Cesium scene of an Earth orbit.
     out : str or Path, optional
         The file written; for an OEM or AEM of several spacecraft, a folder of one file per
         spacecraft (CCSDS messages describe one object each). Default: in the run folder (the

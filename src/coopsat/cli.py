@@ -360,8 +360,8 @@ def _add_export(sub):
     exp = sub.add_parser(
         "export", help="write a run folder as a CCSDS OEM (orbits), a CCSDS AEM (attitudes) or a CZML scene",
         description="Write a run folder's states in a standard format (docs/export.md): oem, CCSDS OEM 2.0 of the "
-                    "positions and velocities (EME2000, km, UTC); aem, CCSDS AEM 1.0 of the attitude quaternions "
-                    "(EME2000 to SC_BODY_1, A2B, scalar first); czml, a Cesium scene of an Earth orbit. A CCSDS "
+                    "positions and velocities (the run's frame and clock: GCRF, TT; km); aem, CCSDS AEM 1.0 of the attitude quaternions "
+                    "(inertial to SC_BODY_1, A2B, scalar first); czml, a Cesium scene of an Earth orbit. A CCSDS "
                     "message holds one spacecraft: a formation's OEM or AEM is a folder of one file per spacecraft.")
     exp.add_argument("run_dir", help="a run folder written by coopsat run")
     # No argparse choices: the formats are coopsat.exports.FORMATS, which the parser does not

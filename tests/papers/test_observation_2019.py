@@ -27,14 +27,14 @@ COOP, INDEP, LITERAL = "observation-cooperative", "observation-independent", "ob
 def _early_target():
     """A target under the reference's ground track 60 s after the start: visible (above 10°) to
     both spacecraft from t = 0, so short runs stare."""
-    from coopsat.astro.earth import gmst_rad, julian_date_utc
     from coopsat.design.observation_geometry import ground_track_point
+    from coopsat.plugins.earth_environment import run_clock
 
     sc = load_scenario(COOP)
     built = prepare(sc)
     r0, v0 = built.context.r_eci_m[0], built.context.v_eci_m_s[0]
-    lat, lon = ground_track_point(r0, v0, 60.0, gmst_rad(julian_date_utc(sc.orbit.epoch_utc)), MU_EARTH_M3_S2,
-                                  J2_EARTH, R_EARTH_M, 10e3)
+    earth = run_clock(sc.orbit, sc.sim.t_final_s).earth
+    lat, lon = ground_track_point(r0, v0, 60.0, earth, MU_EARTH_M3_S2, J2_EARTH, R_EARTH_M, 10e3)
     return [f"controller.target_lat_deg={float(np.degrees(lat))!r}", f"controller.target_lon_deg={float(np.degrees(lon))!r}"]
 
 

@@ -8,12 +8,13 @@ figures).
 """
 
 import brahe as bh
+import erfa
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
 from coopsat.astro.constants import SOLAR_PRESSURE_1AU_N_M2
-from coopsat.astro.earth import OMEGA_EARTH_RAD_S, gmst_rad, julian_date_utc
+from coopsat.astro.timescales import earth_orientation_parameters, run_epoch, utc_from_tt
 from coopsat.astro.gravity_field import EGM2008_GM_M3_S2
 from coopsat.scenarios.load import load_scenario
 from coopsat.workflows.pipeline import prepare, simulate_built
@@ -61,15 +62,20 @@ def engine_run(tmp_path, forces, t_final_s):
     return ds
 
 
-def brahe_accel(forces, jd0, gmst0):
-    """The right-hand side of the independent propagator: brahe's force models in our frames."""
+def brahe_accel(forces, epoch):
+    """The right-hand side of the independent propagator: brahe's force models, with SOFA's own
+    GCRS → ITRS matrix (``erfa.c2t06a``, IAU 2006/2000A, called at every evaluation: not the
+    engine's interpolated table) and the epoch's UT1 − UTC and pole (they change by 1 ms and
+    1 mas in a day: centimetres at the surface)."""
     field = bh.GravityModel.from_model_type(bh.GravityModelType.EGM2008_120)
+    utc = utc_from_tt(*epoch.tt)
+    eop = earth_orientation_parameters(*utc)
+    ut1_minus_tt_d = (utc[0] - epoch.tt[0]) + (utc[1] - epoch.tt[1]) + eop.ut1_utc_s[0] / 86400.0
 
     def accel(t, r, v):
-        epc = bh.Epoch.from_jd(jd0 + t / 86400.0, bh.TimeSystem.TT)
-        theta = gmst0 + OMEGA_EARTH_RAD_S * t
-        c, s = np.cos(theta), np.sin(theta)
-        to_ecef = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        epc = bh.Epoch.from_jd(epoch.jd_tt + t / 86400.0, bh.TimeSystem.TT)
+        tt2 = epoch.tt[1] + t / 86400.0
+        to_ecef = erfa.c2t06a(epoch.tt[0], tt2, epoch.tt[0], tt2 + ut1_minus_tt_d, eop.xp_rad[0], eop.yp_rad[0])
         if "gravity-field" in forces:
             a = to_ecef.T @ field.compute_spherical_harmonics(to_ecef @ r, DEGREE, DEGREE)
         else:
@@ -89,8 +95,7 @@ def brahe_accel(forces, jd0, gmst0):
 
 
 def reference_run(ds, forces):
-    jd0 = julian_date_utc(EPOCH_UTC)
-    accel = brahe_accel(forces, jd0, gmst_rad(jd0))
+    accel = brahe_accel(forces, run_epoch(EPOCH_UTC))
     times = ds.time.values
     y0 = np.concatenate([ds.r_eci.values[0, 0], ds.v_eci.values[0, 0]])
     sol = solve_ivp(lambda t, y: np.concatenate([y[3:], accel(t, y[:3], y[3:])]), (times[0], times[-1]), y0,

@@ -12,8 +12,8 @@ import jax.numpy as jnp
 
 from coopsat.core.parts import OutputSpec, part
 from coopsat.actuators.pulses import Pulse
-from coopsat.astro.earth import rotation_angle_rad
-from coopsat.astro.magnetic import dipole_field_eci
+from coopsat.astro.earth_orientation import EarthOrientation
+from coopsat.astro.magnetic import dipole_field_gcrf
 from coopsat.geometry.quaternion import cross, quat_rotate_inverse
 
 
@@ -45,8 +45,8 @@ class Magnetorquers:
     ----------
     dipole_max_am2 : scalar
         Saturation of each coil, A·m².
-    gmst0_rad : scalar
-        Greenwich sidereal angle at t = 0, rad (the field turns with the Earth).
+    earth : EarthOrientation
+        The Earth's orientation over the run (the field turns with the Earth).
     command : str
         Static: the controller command it executes (the dipole wanted, A·m², body axes).
 
@@ -56,7 +56,7 @@ class Magnetorquers:
     """
 
     dipole_max_am2: jnp.ndarray
-    gmst0_rad: jnp.ndarray
+    earth: EarthOrientation
     command: str = "dipole_b"
 
     channel = "torque_b"
@@ -67,7 +67,7 @@ class Magnetorquers:
         return jnp.zeros((3, n))
 
     def plan(self, command, x, state, period_s, key, t=0.0):
-        field_eci = dipole_field_eci(x.r_eci, rotation_angle_rad(t, self.gmst0_rad), 0)
+        field_eci = dipole_field_gcrf(x.r_eci, t, self.earth, 0)
         field_b = quat_rotate_inverse(x.q_bi, field_eci, 0)
         torque, dipole = magnetorquer_torque_b(command, field_b, self.dipole_max_am2)
         return Pulse(torque, jnp.full_like(torque, period_s)), dipole

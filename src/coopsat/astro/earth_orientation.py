@@ -110,7 +110,7 @@ def iau2006_table(epoch, span_s, step_s=STEP_S):
     q = erfa.c2i06a(tt1, tt2)
     w = erfa.pom00(eop.xp_rad, eop.yp_rad, erfa.sp00(tt1, tt2))
     table = EarthOrientation(np.float64(step_s), angle, q, w)
-    return Oriented(table, "iau2006", "GCRF", eop.source)
+    return Oriented(table, "iau2006", INERTIAL_FRAMES["iau2006"], eop.source)
 
 
 def gmst82_table(epoch, span_s, step_s=STEP_S):
@@ -121,14 +121,18 @@ def gmst82_table(epoch, span_s, step_s=STEP_S):
     from coopsat.astro.earth import julian_date_utc
 
     t = _sample_times(span_s, step_s)
-    angle = gmst_rad(julian_date_utc(epoch.utc_iso)) + OMEGA_EARTH_RAD_S * t
+    angle = gmst_rad(julian_date_utc(epoch.utc_iso or epoch.tt_iso)) + OMEGA_EARTH_RAD_S * t
     eye = np.broadcast_to(np.eye(3), (t.size, 3, 3)).copy()
-    return Oriented(EarthOrientation(np.float64(step_s), angle, eye, eye.copy()), "gmst82", "J2000-like",
+    return Oriented(EarthOrientation(np.float64(step_s), angle, eye, eye.copy()), "gmst82", INERTIAL_FRAMES["gmst82"],
                     "none (UT1 = UTC, no polar motion: SPEC §0)")
 
 
 EARTH_ORIENTATION_MODELS = {"iau2006": iau2006_table, "gmst82": gmst82_table}
 """Builders of the Earth's orientation, by ``[orbit] earth_orientation``."""
+
+INERTIAL_FRAMES = {"iau2006": "GCRF", "gmst82": "J2000-like"}
+"""The inertial frame a run flies in, by Earth orientation model (what ``result.nc`` and the
+exports call it; EME2000 in a CCSDS message for the J2000-like one)."""
 
 
 def z_rotation(angle0_rad, span_s, step_s=STEP_S):
@@ -148,6 +152,7 @@ def _r3(angle_rad, xp):
 def _interpolate(table, t_s, xp):
     """(angle (...), Q (..., 3, 3), W (..., 3, 3)) at run times ``t_s`` (shape (...)), linear
     between samples; times past the table hold its last interval's slope."""
+    table = EarthOrientation(*(xp.asarray(v) for v in table))  # a NumPy table indexes by traced k too
     t = xp.asarray(t_s, dtype=float)
     pos = t / table.step_s
     k = xp.clip(xp.floor(pos).astype(xp.int32), 0, table.angle_rad.shape[0] - 2)
@@ -179,9 +184,9 @@ def itrf_from_gcrf_matrix(table, t_s, xp=jnp):
     return w @ _r3(angle, xp) @ q
 
 
-def _apply(matrix, vec, axis):
-    """``matrix · vec`` with ``vec``'s components along ``axis``; the matrix's leading shape
-    broadcasts against ``vec``'s other axes."""
+def rotate(matrix, vec, axis=-1):
+    """``matrix · vec``, shape of ``vec``, with ``vec``'s components along ``axis``; the
+    matrix's leading shape (..., 3, 3) broadcasts against ``vec``'s other axes."""
     v = jnp.moveaxis(jnp.asarray(vec), axis, -1)
     return jnp.moveaxis((matrix @ v[..., None])[..., 0], -1, axis)
 
@@ -204,12 +209,12 @@ def gcrf_to_itrf(vec_gcrf, t_s, table, axis=-1):
     -------
     jax.Array, the shape of ``vec_gcrf``.
     """
-    return _apply(itrf_from_gcrf_matrix(table, t_s), vec_gcrf, axis)
+    return rotate(itrf_from_gcrf_matrix(table, t_s), vec_gcrf, axis)
 
 
 def itrf_to_gcrf(vec_itrf, t_s, table, axis=-1):
     """Earth-fixed components to inertial ones (inverse of :func:`gcrf_to_itrf`; parameters as there)."""
-    return _apply(jnp.swapaxes(itrf_from_gcrf_matrix(table, t_s), -1, -2), vec_itrf, axis)
+    return rotate(jnp.swapaxes(itrf_from_gcrf_matrix(table, t_s), -1, -2), vec_itrf, axis)
 
 
 def rotation_rate_gcrf(t_s, table):

@@ -12,7 +12,7 @@ under ``jit``.
 
 import jax.numpy as jnp
 
-from coopsat.astro.earth import ecef_to_eci, eci_to_ecef
+from coopsat.astro.earth_orientation import gcrf_to_itrf, itrf_to_gcrf
 
 IGRF_RADIUS_M = 6371200.0
 """IGRF reference radius a, m."""
@@ -50,21 +50,22 @@ def dipole_field_ecef(r_ecef_m, axis=-1):
     return (IGRF_RADIUS_M / r) ** 3 * (3.0 * _dot(g, r_hat, axis) * r_hat - g)
 
 
-def dipole_field_eci(r_eci_m, theta_rad, axis=-1):
-    """Field of the tilted dipole, ECI components, T.
+def dipole_field_gcrf(r_gcrf_m, t_s, earth, axis=-1):
+    """Field of the tilted dipole, inertial components, T.
 
     Parameters
     ----------
-    r_eci_m : array_like, shape (..., 3) (component ``axis``)
-        Position, ECI, m.
-    theta_rad : array_like
-        Greenwich sidereal angle, rad (:func:`coopsat.astro.earth.rotation_angle_rad`),
-        broadcast as in :func:`coopsat.astro.earth.ecef_to_eci`.
+    r_gcrf_m : array_like, shape (..., 3) (component ``axis``)
+        Position, inertial (GCRF), m.
+    t_s : array_like
+        Run time, s, broadcast as in :func:`coopsat.astro.earth_orientation.gcrf_to_itrf`.
+    earth : coopsat.astro.earth_orientation.EarthOrientation
+        The Earth's orientation over the run (the dipole is fixed to the Earth).
     axis : int
         Component axis.
 
     Returns
     -------
-    jax.Array, the shape of ``r_eci_m``
+    jax.Array, the shape of ``r_gcrf_m``
     """
-    return ecef_to_eci(dipole_field_ecef(eci_to_ecef(r_eci_m, theta_rad, axis), axis), theta_rad, axis)
+    return itrf_to_gcrf(dipole_field_ecef(gcrf_to_itrf(r_gcrf_m, t_s, earth, axis), axis), t_s, earth, axis)

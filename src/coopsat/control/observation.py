@@ -40,7 +40,8 @@ import jax
 import jax.numpy as jnp
 
 from coopsat.core.parts import OutputSpec, part
-from coopsat.astro.earth import earth_fixed_point_eci, ecef_to_eci, elevation_rad, rotation_angle_rad
+from coopsat.astro.earth import elevation_rad
+from coopsat.astro.earth_orientation import EarthOrientation, earth_fixed_point_gcrf, itrf_to_gcrf
 from coopsat.geometry.quaternion import cross, dot, quat_conjugate, quat_multiply, quat_positive, quat_rotate, quat_vector
 
 
@@ -212,8 +213,8 @@ class ObservationSoftware:
         The target, Earth-fixed, m.
     up_ecef : (3,)
         The ellipsoid normal at the target (its local vertical), Earth-fixed.
-    gmst0_rad : scalar
-        Earth rotation angle at t = 0.
+    earth : EarthOrientation
+        The Earth's orientation over the run.
     mu_m3_s2 : scalar
         For the spacecraft's two-body acceleration in ρ̈.
     inertia_kgm2 : (3, 3, n)
@@ -245,7 +246,7 @@ class ObservationSoftware:
     q_sun_bi: jnp.ndarray
     target_ecef_m: jnp.ndarray
     up_ecef: jnp.ndarray
-    gmst0_rad: jnp.ndarray
+    earth: EarthOrientation
     mu_m3_s2: jnp.ndarray
     inertia_kgm2: jnp.ndarray
     k1: jnp.ndarray
@@ -285,8 +286,8 @@ class ObservationSoftware:
 
         Returns (q_d, omega_d, omega_dot_d, elevation_rad, staring, los_unit_eci).
         """
-        r_g, v_g, a_g = earth_fixed_point_eci(self.target_ecef_m, t, self.gmst0_rad)
-        up = ecef_to_eci(self.up_ecef, rotation_angle_rad(t, self.gmst0_rad))
+        r_g, v_g, a_g = earth_fixed_point_gcrf(self.target_ecef_m, t, self.earth)
+        up = itrf_to_gcrf(self.up_ecef, t, self.earth)
         los = r_g - r_eci
         accel = -self.mu_m3_s2 * r_eci / dot(r_eci, r_eci) ** 1.5
         elevation = elevation_rad(r_eci, r_g, up)

@@ -10,7 +10,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from coopsat.astro.earth import ecef_to_geodetic, eci_to_ecef, geodetic_to_ecef, rotation_angle_rad, up_ecef
+from coopsat.astro.earth import ecef_to_geodetic, geodetic_to_ecef, up_ecef
+from coopsat.astro.earth_orientation import itrf_from_gcrf_matrix
 from coopsat.design.memo import by_value
 
 
@@ -75,34 +76,35 @@ def propagate(r0_m, v0_m_s, times_s, mu_m3_s2, j2, r_body_m):
     return sol.y[:3].T
 
 
-def target_elevations(r_eci_m, times_s, target_ecef_m, up_target_ecef, gmst0_rad):
-    """Elevation of each spacecraft position above the target's horizon, rad, shape (len(times_s),)."""
+def target_elevations(r_eci_m, times_s, target_ecef_m, up_target_ecef, earth):
+    """Elevation of each spacecraft position above the target's horizon, rad, shape (len(times_s),);
+    ``earth`` the run's :class:`~coopsat.astro.earth_orientation.EarthOrientation`."""
     # The spacecraft into ECEF, where the target and its vertical stand still.
-    r_ecef = np.asarray(eci_to_ecef(r_eci_m, rotation_angle_rad(times_s, gmst0_rad)))
+    r_ecef = (itrf_from_gcrf_matrix(earth, times_s, np) @ np.asarray(r_eci_m)[..., None])[..., 0]
     los = r_ecef - target_ecef_m
     return np.arcsin(los @ up_target_ecef / np.linalg.norm(los, axis=1))
 
 
 @by_value
-def first_visible_s(r0_m, v0_m_s, target_ecef_m, up_target_ecef, gmst0_rad, min_elevation_rad, horizon_s, mu_m3_s2,
+def first_visible_s(r0_m, v0_m_s, target_ecef_m, up_target_ecef, earth, min_elevation_rad, horizon_s, mu_m3_s2,
                     j2, r_body_m, step_s=5.0):
     """First time the target is at least ``min_elevation_rad`` above its horizon, s (None if not
     within ``horizon_s``), sampled every ``step_s``."""
     times = np.arange(0.0, horizon_s + step_s, step_s)
     el = target_elevations(propagate(r0_m, v0_m_s, times, mu_m3_s2, j2, r_body_m), times, target_ecef_m, up_target_ecef,
-                           gmst0_rad)
+                           earth)
     above = np.flatnonzero(el >= min_elevation_rad)
     return float(times[above[0]]) if above.size else None
 
 
-def ground_track_point(r0_m, v0_m_s, t_s, gmst0_rad, mu_m3_s2, j2, r_body_m, cross_track_m=0.0):
+def ground_track_point(r0_m, v0_m_s, t_s, earth, mu_m3_s2, j2, r_body_m, cross_track_m=0.0):
     """Geodetic latitude, longitude (rad) of the point under the spacecraft at ``t_s``, moved
     ``cross_track_m`` along the orbit normal (a target near, not on, the ground track)."""
     r = propagate(r0_m, v0_m_s, np.array([0.0, t_s]), mu_m3_s2, j2, r_body_m)[-1]
     normal = np.cross(r0_m, v0_m_s)
     normal /= np.linalg.norm(normal)
-    theta = rotation_angle_rad(t_s, gmst0_rad)
-    r_ecef, n_ecef = (np.asarray(eci_to_ecef(v, theta)) for v in (r, normal))
+    to_itrf = itrf_from_gcrf_matrix(earth, t_s, np)
+    r_ecef, n_ecef = to_itrf @ r, to_itrf @ normal
     lat, lon, _ = ecef_to_geodetic(r_ecef)
     surface = geodetic_to_ecef(lat, lon, 0.0)
     lat, lon, _ = ecef_to_geodetic(np.asarray(surface) + cross_track_m * n_ecef)

@@ -15,8 +15,9 @@ import jax.numpy as jnp
 
 from coopsat.core.parts import OutputSpec, part
 from coopsat.astro.atmosphere import altitude_m, density_kg_m3
-from coopsat.astro.earth import OMEGA_EARTH_RAD_S, rotation_angle_rad
-from coopsat.astro.magnetic import dipole_field_eci
+from coopsat.astro.earth import OMEGA_EARTH_RAD_S
+from coopsat.astro.earth_orientation import EarthOrientation
+from coopsat.astro.magnetic import dipole_field_gcrf
 from coopsat.astro.sun import sun_position_eci_m, sunlit
 from coopsat.environment.torques import Stateless
 from coopsat.geometry.quaternion import cross, quat_rotate_inverse
@@ -185,15 +186,15 @@ class ResidualDipoleTorque(Stateless):
     ----------
     dipole_b_am2 : (3, 1)
         Residual dipole, body axes, A·m² (the same on every spacecraft).
-    gmst0_rad : scalar
-        Greenwich sidereal angle at t = 0, rad (the field turns with the Earth).
+    earth : EarthOrientation
+        The Earth's orientation over the run (the field turns with the Earth).
     """
 
     dipole_b_am2: jnp.ndarray
-    gmst0_rad: jnp.ndarray
+    earth: EarthOrientation
 
     def wrench(self, t, x, state):
-        b_b = quat_rotate_inverse(x.q_bi, dipole_field_eci(x.r_eci, rotation_angle_rad(t, self.gmst0_rad), 0), 0)
+        b_b = quat_rotate_inverse(x.q_bi, dipole_field_gcrf(x.r_eci, t, self.earth, 0), 0)
         return {"torque_b": cross(jnp.broadcast_to(self.dipole_b_am2, b_b.shape), b_b, 0)}
 
     def record(self, t, x, state):

@@ -4,14 +4,15 @@ radiation pressure with the Earth's shadow.
 Disturbance parts as in :mod:`coopsat.environment.torques` (``init``, ``update``, ``wrench`` at
 every integration stage, ``record``); arrays are component-major, ``(3, n)``. Gravity acts
 through the ``accel_eci`` channel (whatever the mass), drag and radiation pressure through
-``force_eci``. The Earth-fixed frame turns about the inertial z axis by the Greenwich angle
-``θ(t) = θ0 + ω_E t`` (:mod:`coopsat.astro.earth`), and the ephemerides take the run's clock as
-TT (the 69 s by which UTC lags TT move the Moon by 0.01°: docs/leo.md).
+``force_eci``. The Earth-fixed frame is the run's :class:`~coopsat.astro.earth_orientation.EarthOrientation`
+(IAU 2006/2000A by default), and the ephemerides take the run's clock, which is TT
+(:mod:`coopsat.astro.timescales`). The analytic series give EME2000; the frame bias to the
+GCRF (0.02″) is far below their own error (docs/leo.md), so it is not applied.
 """
 
 import jax.numpy as jnp
 
-from coopsat.astro.earth import ecef_to_eci, eci_to_ecef, rotation_angle_rad
+from coopsat.astro.earth_orientation import EarthOrientation, itrf_from_gcrf_matrix, rotate
 from coopsat.astro.ephemeris import (
     moon_position_eme2000_m,
     shadow_fraction_conical,
@@ -38,20 +39,20 @@ class GravityField(Stateless):
         Fully normalised coefficients (:func:`coopsat.astro.gravity_field.egm2008`).
     gm_m3_s2, radius_m : scalar
         The model's GM and reference radius.
-    gmst0_rad : scalar
-        Greenwich angle at t = 0, rad.
+    earth : EarthOrientation
+        The Earth's orientation over the run (the field is fixed to the Earth).
     """
 
     c: jnp.ndarray
     s: jnp.ndarray
     gm_m3_s2: jnp.ndarray
     radius_m: jnp.ndarray
-    gmst0_rad: jnp.ndarray
+    earth: EarthOrientation
 
     def wrench(self, t, x, state):
-        theta = rotation_angle_rad(t, self.gmst0_rad)
-        a_ecef = harmonic_accel_ecef(eci_to_ecef(x.r_eci, theta, 0), self.c, self.s, self.gm_m3_s2, self.radius_m, 0)
-        return {"accel_eci": ecef_to_eci(a_ecef, theta, 0)}
+        to_itrf = itrf_from_gcrf_matrix(self.earth, t)  # once for both ways
+        a_itrf = harmonic_accel_ecef(rotate(to_itrf, x.r_eci, 0), self.c, self.s, self.gm_m3_s2, self.radius_m, 0)
+        return {"accel_eci": rotate(jnp.swapaxes(to_itrf, -1, -2), a_itrf, 0)}
 
     def record(self, t, x, state):
         return {"gravity_field_accel": self.wrench(t, x, state)["accel_eci"]}

@@ -5,7 +5,7 @@ Our quaternion ``q_bi`` (scalar first, Hamilton) takes body components to inerti
 axes. That is what ADM calls the attitude from frame A to frame B with A the inertial frame:
 its direction-cosine matrix ``M(q) = (qc² − |q|²) I + 2 q qᵀ − 2 qc [q×]`` maps A components
 to B components, and ``M(q_bi) = C_ib = quat_to_dcm(q_bi)ᵀ`` for the same four numbers. So the
-run's quaternion is written unchanged, with ``REF_FRAME_A = EME2000``, ``REF_FRAME_B =
+run's quaternion is written unchanged, with ``REF_FRAME_A`` the run's inertial frame, ``REF_FRAME_B =
 SC_BODY_1``, ``ATTITUDE_DIR = A2B``, ``QUATERNION_TYPE = FIRST`` (tests/unit/export checks
 the matrix identity). The sign is the run's, continuous in time, so that a reader's
 interpolation between lines is sound (ADM only recommends ``QC ≥ 0``).
@@ -42,8 +42,8 @@ def render(run, name):
     ]
     metadata = m.AemMetadata(
         object_name=name, object_id=name, center_name=run.center_name,
-        ref_frame_a=ccsds.REF_FRAME_INERTIAL, ref_frame_b=ccsds.REF_FRAME_BODY, attitude_dir=m.RotDirectionType.A2_B,
-        time_system=m.TimeSystemType(ccsds.TIME_SYSTEM), start_time=str(epochs[0]), stop_time=str(epochs[-1]),
+        ref_frame_a=run.ref_frame, ref_frame_b=ccsds.REF_FRAME_BODY, attitude_dir=m.RotDirectionType.A2_B,
+        time_system=m.TimeSystemType(run.time_system), start_time=str(epochs[0]), stop_time=str(epochs[-1]),
         attitude_type=m.AttitudeTypeType.QUATERNION_1, quaternion_type=m.QuaternionTypeType.FIRST_1,
     )
     segment = m.AemSegment(metadata=metadata, data=m.AemData(attitude_state=states))

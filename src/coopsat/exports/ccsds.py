@@ -11,14 +11,8 @@ A CCSDS OEM or AEM describes one object, so each spacecraft gets its own message
 
 from datetime import datetime, timezone
 
-REF_FRAME_INERTIAL = "EME2000"
-"""CCSDS name of the run's inertial axes (docs/export.md: ECI, J2000-like, no precession)."""
-
 REF_FRAME_BODY = "SC_BODY_1"
 """CCSDS name of the spacecraft's body axes."""
-
-TIME_SYSTEM = "UTC"
-"""The runs count time from a UTC epoch (``[orbit] epoch_utc``)."""
 
 ORIGINATOR = "coopsat"
 

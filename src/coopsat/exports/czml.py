@@ -2,11 +2,11 @@
 
 CZML places objects around the Earth and defines an orientation as the rotation from body axes
 to the Earth-fixed axes, so both position and orientation are given in Cesium's ``FIXED``
-frame, obtained from the run's ECI by the run's own Earth rotation (about z by
-``θ = GMST(epoch_utc) + ω_E t``, IAU-82, no precession or nutation: coopsat.astro.earth). A
-viewer then shows each spacecraft over the ground point the run itself computed (the
-observation scenarios' targets); Cesium's ``INERTIAL`` frame would move them by the precession
-since J2000 (0.3° in 2020). A run about another body is refused.
+frame, obtained from the run's inertial states by the run's own Earth orientation (rebuilt from
+its ``[orbit]`` table: IAU 2006/2000A by default, or the papers' GMST turn,
+coopsat.astro.earth_orientation). A viewer then shows each spacecraft over the ground point the
+run itself computed (the observation scenarios' targets). Sample times are UTC, ``epoch_utc + t``.
+A run about another body is refused.
 
 Per spacecraft: ``position.cartesian`` samples ``[t, x, y, z, …]`` in m (t in s from the packet's
 ``epoch``), ``orientation.unitQuaternion`` samples ``[t, x, y, z, w, …]`` (scalar last, as CZML
@@ -24,32 +24,33 @@ LIBRARY = ("czml3", "czml3")
 """The distribution that writes the format, and its import name (the ``export`` extra)."""
 
 
-# θ and the rotation are computed here in NumPy float64, as astro.earth's rotation_angle_rad and
-# eci_to_ecef define them: those are jax.numpy, float32 in a process that has not run a
-# scenario (the export does not), which would misplace a low orbit by metres.
-def earth_rotation_rad(run):
-    """Earth rotation angle ``θ = GMST(epoch) + ω_E t`` at every sample, rad, shape (T,)."""
-    from coopsat.astro.earth import OMEGA_EARTH_RAD_S, gmst_rad, julian_date_utc
+def fixed_from_inertial(run):
+    """The run's inertial-to-Earth-fixed matrices at every sample, shape (T, 3, 3): its own Earth
+    orientation table, in NumPy float64 (JAX is float32 in a process that has not run a
+    scenario, which would misplace a low orbit by metres)."""
+    from coopsat.astro.earth_orientation import itrf_from_gcrf_matrix
+    from coopsat.plugins.earth_environment import run_clock
+    from coopsat.scenarios.schema import Orbit
 
-    return gmst_rad(julian_date_utc(str(run.epoch))) + OMEGA_EARTH_RAD_S * run.t_s
-
-
-def r_fixed_m(r_eci_m, theta_rad):
-    """Earth-fixed components ``R3(θ) r`` of ECI vectors, shapes (T, n, 3) and (T,) -> (T, n, 3), m."""
-    c, s = np.cos(theta_rad)[:, None], np.sin(theta_rad)[:, None]
-    x, y, z = np.moveaxis(r_eci_m, -1, 0)
-    return np.stack([c * x + s * y, -s * x + c * y, z], axis=-1)
+    table = run_clock(Orbit.model_validate(run.orbit), float(run.t_s[-1])).earth
+    return itrf_from_gcrf_matrix(table, run.t_s, np)
 
 
-def q_body_to_fixed(q_bi, theta_rad):
-    """Attitude relative to the Earth-fixed axes, ``q_fi ⊗ q_bi`` with ``q_fi = [cos(θ/2), 0, 0,
-    −sin(θ/2)]`` (takes ECI components to fixed ones), scalar first, shapes (T, n, 4) and (T,)."""
+def r_fixed_m(r_eci_m, to_fixed):
+    """Earth-fixed components ``M r`` of inertial vectors, shapes (T, n, 3) and (T, 3, 3) -> (T, n, 3), m."""
+    return np.einsum("tij,tnj->tni", to_fixed, r_eci_m)
+
+
+def q_body_to_fixed(q_bi, to_fixed):
+    """Attitude relative to the Earth-fixed axes, ``q_fi ⊗ q_bi`` with ``q_fi`` the rotation whose
+    matrix is ``M`` (it takes inertial components to fixed ones), scalar first, shapes (T, n, 4)
+    and (T, 3, 3)."""
+    from scipy.spatial.transform import Rotation
+
     from coopsat.geometry.quaternion import quat_multiply
 
-    half = 0.5 * theta_rad
-    zero = np.zeros_like(half)
-    q_fi = np.stack([np.cos(half), zero, zero, -np.sin(half)], axis=-1)[:, None, :]
-    return quat_multiply(q_fi, q_bi)
+    q_fi = Rotation.from_matrix(to_fixed).as_quat(scalar_first=True)[:, None, :]
+    return np.asarray(quat_multiply(q_fi, q_bi))
 
 
 def _samples(t_s, values):
@@ -77,11 +78,11 @@ def render(run, names):
     if run.center_name != "EARTH":
         raise ExportError(f"{run.scenario_name}: {WHAT} places spacecraft around the Earth and this run's central "
                           f"body is the {run.center_name.title()}; export its orbits with --format oem")
-    epochs = epochs_iso(run)
+    epochs = epochs_iso(run, utc=True)
     epoch, interval = f"{epochs[0]}Z", f"{epochs[0]}Z/{epochs[-1]}Z"
-    theta = earth_rotation_rad(run)
-    r_f = r_fixed_m(run.r_eci_m, theta)
-    q_f = None if run.q_bi is None else q_body_to_fixed(run.q_bi, theta)
+    to_fixed = fixed_from_inertial(run)
+    r_f = r_fixed_m(run.r_eci_m, to_fixed)
+    q_f = None if run.q_bi is None else q_body_to_fixed(run.q_bi, to_fixed)
     packets = [Packet(id="document", name=run.scenario_name, version="1.0",
                       clock=Clock(interval=interval, currentTime=epoch, multiplier=10.0))]
     for name in names:

@@ -1,8 +1,9 @@
 """CCSDS Orbit Ephemeris Message (OEM 2.0, KVN) of one spacecraft of a run.
 
 Each data line is ``EPOCH X Y Z X_DOT Y_DOT Z_DOT``: the run's recorded inertial position and
-velocity in km and km/s (the OEM's units), ``REF_FRAME = EME2000`` centred on the run's
-central body (``EARTH`` or ``SUN``), ``TIME_SYSTEM = UTC``. Values are written as the shortest
+velocity in km and km/s (the OEM's units), ``REF_FRAME`` the run's inertial frame (``GCRF``,
+or ``EME2000`` for the papers' Earth) centred on its central body (``EARTH`` or ``SUN``),
+``TIME_SYSTEM`` its clock (``TT``; ``UTC`` for a result older than the run's time scales). Values are written as the shortest
 decimal that reads back as the same float64, so a reader recovers the km values exactly.
 """
 
@@ -43,8 +44,8 @@ def render(run, name):
         for epoch, r, v in zip(epochs, r_km, v_km_s)
     ]
     metadata = m.OemMetadata(
-        object_name=name, object_id=name, center_name=run.center_name, ref_frame=ccsds.REF_FRAME_INERTIAL,
-        time_system=ccsds.TIME_SYSTEM, start_time=str(epochs[0]), stop_time=str(epochs[-1]),
+        object_name=name, object_id=name, center_name=run.center_name, ref_frame=run.ref_frame,
+        time_system=run.time_system, start_time=str(epochs[0]), stop_time=str(epochs[-1]),
     )
     segment = m.OemSegment(metadata=metadata, data=m.OemData(state_vector=states))
     return ccsds.kvn_text(Oem(header=ccsds.header(m, run), body=m.OemBody(segment=[segment])))

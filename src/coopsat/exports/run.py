@@ -4,10 +4,11 @@ A run is read once into a :class:`RunStates` (NumPy, SI); the format modules onl
 What a format needs and a run lacks is refused here, in one line naming the cause
 (:func:`require_positions`, :func:`require_attitude`).
 
-Frames (docs/export.md): the run's inertial frame is the ECI of docs/conventions.md (J2000-like
-axes, no precession), centred on the ``[orbit]`` central body; the CCSDS messages name its axes
-``EME2000``. Times are ``epoch + t`` with the epoch ``[orbit] epoch_utc`` on the UTC scale, as
-the run itself uses it (every day 86 400 s).
+Frames and time (docs/time-and-frames.md): a run records its inertial frame and clock in
+``result.nc`` (``inertial_frame``, ``time_scale``, ``epoch_tt``): the GCRF with the IAU 2006
+Earth, ``EME2000`` (J2000-like axes) with the papers' GMST Earth; the clock is TT. Times are
+``epoch_tt + t`` on TT. A result written before runs recorded them (no ``epoch_tt``) is read
+as it was flown then: ``[orbit] epoch_utc + t`` on UTC, axes EME2000.
 """
 
 import tomllib
@@ -37,9 +38,17 @@ class RunStates:
     t_s : ndarray, shape (T,)
         Sample times since t = 0, s.
     epoch : numpy.datetime64
-        UTC date-time of t = 0 (microseconds).
+        Date-time of t = 0 on ``time_system`` (microseconds).
     epoch_note : str
         Where the epoch comes from (written as a comment in each file).
+    time_system : str
+        CCSDS ``TIME_SYSTEM`` of ``epoch + t``: ``"TT"`` (or ``"UTC"`` for an older result).
+    ref_frame : str
+        CCSDS ``REF_FRAME`` of the inertial axes: ``"GCRF"`` or ``"EME2000"``.
+    epoch_utc : numpy.datetime64
+        t = 0 in UTC (CZML's scale), microseconds.
+    orbit : dict or None
+        The resolved ``[orbit]`` table (its Earth orientation, for Earth-fixed exports).
     center_name : str or None
         CCSDS ``CENTER_NAME`` of the central body (``EARTH``, ``SUN``); None without ``[orbit]``,
         or for a body that is neither.
@@ -58,6 +67,10 @@ class RunStates:
     t_s: np.ndarray
     epoch: np.datetime64
     epoch_note: str
+    time_system: str
+    ref_frame: str
+    epoch_utc: np.datetime64
+    orbit: dict | None
     center_name: str | None
     mu_m3_s2: float | None
     r_eci_m: np.ndarray | None
@@ -88,21 +101,31 @@ def open_dataset(source):
         raise ExportError(f"{path}: cannot be read as a run's result ({err})") from None
 
 
-def _epoch(orbit):
-    """UTC epoch of t = 0 from the resolved ``[orbit]`` table (None: attitude only) and a note.
+def _instant(iso):
+    """An ISO-8601 string (a zone, if any, taken to UTC) as ``numpy.datetime64[us]``."""
+    when = datetime.fromisoformat(iso)
+    when = when if when.tzinfo is None else when.astimezone(timezone.utc).replace(tzinfo=None)
+    return np.datetime64(when, "us")
+
+
+def _epoch(orbit, attrs):
+    """(epoch, note, time system, inertial frame, UTC epoch) of t = 0 from the resolved ``[orbit]``
+    table (None: attitude only) and the result's attributes.
 
     An attitude-only run has no date: its t = 0 is written as the default ``epoch_utc`` of
-    ``[orbit]`` (docs/scenarios.md), and the note says so.
+    ``[orbit]`` (docs/scenarios.md) on UTC, and the note says so.
     """
+    if "epoch_tt" in attrs:
+        frame = "GCRF" if attrs.get("inertial_frame") == "GCRF" else "EME2000"
+        note = f"t = 0 is {attrs['epoch_tt']} TT (given as {attrs.get('epoch_given', '?')}); the clock is TT"
+        return _instant(attrs["epoch_tt"]), note, "TT", frame, _instant(attrs["epoch_utc"])
     if orbit is None:
         from coopsat.scenarios.schema import Orbit
 
         iso, note = Orbit.model_fields["epoch_utc"].default, "no [orbit]: t = 0 written as the default epoch"
     else:
         iso, note = orbit["epoch_utc"], "t = 0 is [orbit] epoch_utc"
-    when = datetime.fromisoformat(iso)
-    when = when.replace(tzinfo=timezone.utc) if when.tzinfo is None else when.astimezone(timezone.utc)
-    return np.datetime64(when.replace(tzinfo=None), "us"), f"{note} {iso} (UTC)"
+    return _instant(iso), f"{note} {iso} (UTC)", "UTC", "EME2000", _instant(iso)
 
 
 def _values(ds, name):
@@ -121,7 +144,7 @@ def read_states(source):
     if "scenario_toml" not in ds.attrs:
         raise ExportError(f"{source}: the result has no scenario_toml attribute (not written by coopsat run)")
     orbit = tomllib.loads(ds.attrs["scenario_toml"]).get("orbit")
-    epoch, note = _epoch(orbit)
+    epoch, note, time_system, frame, epoch_utc = _epoch(orbit, ds.attrs)
     mu = None if orbit is None else float(orbit["mu_m3_s2"])
     return RunStates(
         scenario_name=str(ds.attrs.get("scenario_name", "run")),
@@ -129,6 +152,10 @@ def read_states(source):
         t_s=np.asarray(ds["time"].values, dtype=np.float64),
         epoch=epoch,
         epoch_note=note,
+        time_system=time_system,
+        ref_frame=frame,
+        epoch_utc=epoch_utc,
+        orbit=orbit,
         center_name=None if mu is None else central_body_name(mu),
         mu_m3_s2=mu,
         r_eci_m=_values(ds, "r_eci"),
@@ -137,10 +164,12 @@ def read_states(source):
     )
 
 
-def epochs_iso(run):
-    """ISO-8601 UTC date-time of every sample, to the microsecond: shape (T,) of str."""
+def epochs_iso(run, utc=False):
+    """ISO-8601 date-time of every sample on the run's ``time_system`` (``utc``: on UTC, as
+    ``epoch_utc + t``, which a leap second inside the run would put 1 s off after it), to the
+    microsecond: shape (T,) of str."""
     offsets = np.round(run.t_s * 1e6).astype(np.int64).astype("timedelta64[us]")
-    return np.datetime_as_string(run.epoch + offsets, unit="us")
+    return np.datetime_as_string((run.epoch_utc if utc else run.epoch) + offsets, unit="us")
 
 
 def require_positions(run, what):

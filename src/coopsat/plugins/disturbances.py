@@ -73,7 +73,7 @@ def _build_srp(table, ctx):
         from coopsat.environment.orbit_forces import EarthSolarRadiationPressure
         from coopsat.plugins.earth_environment import epoch
 
-        arrays = (area, refl, table.pressure_1au_n_m2, AU_M, epoch(ctx)[0])
+        arrays = (area, refl, table.pressure_1au_n_m2, AU_M, epoch(ctx).jd_tt)
         return EarthSolarRadiationPressure(*as_arrays(arrays), shadow=table.shadow)
     # About any other body, that body is the light source: the Sun of heliocentric runs (SPEC §4).
     return SolarRadiationPressure(*as_arrays((area, refl, table.pressure_1au_n_m2, AU_M)))

@@ -6,7 +6,8 @@ spacecraft; the Sun, the air and the field depend on ``[orbit] epoch_utc`` and o
 being the central body.
 """
 
-from typing import Annotated, Literal
+import functools
+from typing import Annotated, Literal, NamedTuple
 
 from pydantic import Field, model_validator
 
@@ -93,12 +94,63 @@ def require_earth_orbit(ctx, where):
         raise DesignError(f'{where} acts on the attitude; it needs sim.attitude = "rigid-body"')
 
 
-def epoch(ctx):
-    """Julian date and Greenwich sidereal angle (rad) of t = 0, from ``[orbit] epoch_utc``."""
-    from coopsat.astro.earth import gmst_rad, julian_date_utc
+class RunClock(NamedTuple):
+    """When a run flies and how the Earth turns meanwhile (design time).
 
-    jd = julian_date_utc(ctx.scenario.orbit.epoch_utc)
-    return jd, gmst_rad(jd)
+    Attributes
+    ----------
+    epoch : coopsat.astro.timescales.RunEpoch
+    oriented : coopsat.astro.earth_orientation.Oriented
+        The Earth's orientation table over the run (NumPy) and where it came from.
+    """
+
+    epoch: object
+    oriented: object
+
+    @property
+    def jd_tt(self):
+        """Julian date (TT) of t = 0, one float (for the ephemerides)."""
+        return self.epoch.jd_tt
+
+    @property
+    def earth(self):
+        """The orientation table (NumPy arrays; ``as_arrays`` makes them a part's)."""
+        return self.oriented.table
+
+
+@functools.lru_cache(maxsize=32)
+def _epoch(iso, scale):
+    from coopsat.astro.timescales import TimeScaleError, run_epoch
+
+    try:
+        return run_epoch(iso, scale)
+    except TimeScaleError as err:
+        raise DesignError(f"orbit.epoch_{scale}: {err}") from None
+
+
+def run_epoch_of(orbit):
+    """The :class:`~coopsat.astro.timescales.RunEpoch` of an ``[orbit]`` table (a DesignError
+    naming the field for an epoch that cannot be placed on TT)."""
+    return _epoch(*orbit.epoch)
+
+
+@functools.lru_cache(maxsize=32)
+def _clock(iso, scale, model, span_s):
+    from coopsat.astro.earth_orientation import EARTH_ORIENTATION_MODELS
+
+    when = _epoch(iso, scale)
+    return RunClock(when, EARTH_ORIENTATION_MODELS[model](when, span_s))
+
+
+def run_clock(orbit, t_final_s):
+    """The :class:`RunClock` of an ``[orbit]`` table over a run of ``t_final_s`` (at least a day,
+    so that the design checks that look ahead — the target's first rise — stay inside it)."""
+    return _clock(*orbit.epoch, orbit.earth_orientation, float(max(t_final_s, 86400.0)))
+
+
+def epoch(ctx):
+    """The run's :class:`RunClock` (``[orbit]``'s epoch and Earth orientation)."""
+    return run_clock(ctx.scenario.orbit, ctx.scenario.sim.t_final_s)
 
 
 def _per_facet(value, count, field):
@@ -139,7 +191,7 @@ def _build_srp(table, ctx):
     if (specular + diffuse > 1.0).any():
         k = int((specular + diffuse > 1.0).argmax())
         raise DesignError(f"disturbances: solar-pressure-torque facet {k} reflects more than all its light (specular + diffuse > 1)")
-    arrays = (normals, areas, centres, specular, diffuse, table.pressure_1au_n_m2, AU_M, epoch(ctx)[0])
+    arrays = (normals, areas, centres, specular, diffuse, table.pressure_1au_n_m2, AU_M, epoch(ctx).jd_tt)
     return SolarPressureTorque(*as_arrays(arrays))
 
 
@@ -150,7 +202,7 @@ def _build_dipole(table, ctx):
     from coopsat.sim.system import as_arrays
 
     require_earth_orbit(ctx, "disturbances: residual-dipole")
-    return ResidualDipoleTorque(*as_arrays((np.asarray(table.dipole_am2, dtype=float).reshape(3, 1), epoch(ctx)[1])))
+    return ResidualDipoleTorque(*as_arrays((np.asarray(table.dipole_am2, dtype=float).reshape(3, 1), epoch(ctx).earth)))
 
 
 def _build_magnetorquers(table, ctx):
@@ -158,10 +210,40 @@ def _build_magnetorquers(table, ctx):
     from coopsat.sim.system import as_arrays
 
     require_earth_orbit(ctx, "actuators: magnetorquers")
-    return Magnetorquers(*as_arrays((table.dipole_max_am2, epoch(ctx)[1])), command=table.command)
+    return Magnetorquers(*as_arrays((table.dipole_max_am2, epoch(ctx).earth)), command=table.command)
 
 
 register(Plugin("disturbance", "aerodynamic-torque", AerodynamicTorqueTable, _build_aero))
 register(Plugin("disturbance", "solar-pressure-torque", SolarPressureTorqueTable, _build_srp))
 register(Plugin("disturbance", "residual-dipole", ResidualDipoleTable, _build_dipole))
 register(Plugin("actuator", "magnetorquers", MagnetorquersTable, _build_magnetorquers))
+
+
+def time_attributes(scenario, system):
+    """What a run's clock and frames are, for ``result.nc``'s global attributes (str values).
+
+    ``time_scale`` always; with an ``[orbit]``, the epoch on TT and UTC and the inertial frame;
+    when a part of ``system`` turns with the Earth (it carries an
+    :class:`~coopsat.astro.earth_orientation.EarthOrientation`), the orientation model and where
+    UT1 − UTC and the pole came from.
+    """
+    import jax
+
+    from coopsat.astro.earth_orientation import INERTIAL_FRAMES, EarthOrientation
+
+    if scenario.orbit is None:
+        return {"time_scale": "elapsed seconds (no [orbit]: the run has no date)"}
+    when = run_epoch_of(scenario.orbit)
+    iso, scale = scenario.orbit.epoch
+    attrs = {
+        "time_scale": "TT (time is SI seconds of Terrestrial Time since epoch_tt)",
+        "epoch_tt": when.tt_iso,
+        "epoch_utc": when.utc_iso or "beyond the leap-second table",
+        "epoch_given": f"{iso} ({scale.upper()})",
+        "inertial_frame": INERTIAL_FRAMES[scenario.orbit.earth_orientation],
+        "earth_orientation": scenario.orbit.earth_orientation,
+    }
+    turns = jax.tree_util.tree_leaves(system, is_leaf=lambda x: isinstance(x, EarthOrientation))
+    if any(isinstance(leaf, EarthOrientation) for leaf in turns):
+        attrs["earth_orientation_parameters"] = run_clock(scenario.orbit, scenario.sim.t_final_s).oriented.eop_source
+    return attrs

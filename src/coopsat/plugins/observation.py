@@ -79,7 +79,7 @@ def sun_pointing(ctx):
     from coopsat.astro.sun import sun_direction_eci
     from coopsat.design.observation_geometry import sun_pointing_quaternion
 
-    sun = np.asarray(sun_direction_eci(epoch(ctx)[0]))
+    sun = np.asarray(sun_direction_eci(epoch(ctx).jd_tt))
     return np.array([sun_pointing_quaternion(sun, r) for r in ctx.r_eci_m])
 
 
@@ -103,7 +103,7 @@ def _build(table, ctx):
     r_target, up = target_ecef(lat, lon, table.target_height_m)
     return ObservationSoftware(
         *as_arrays((
-            sun_pointing(ctx).T, r_target, up, epoch(ctx)[1], scenario.orbit.mu_m3_s2, np.moveaxis(ctx.inertia_kgm2, 0, -1),
+            sun_pointing(ctx).T, r_target, up, epoch(ctx).earth, scenario.orbit.mu_m3_s2, np.moveaxis(ctx.inertia_kgm2, 0, -1),
             table.k1, table.k2, table.torque_max_nm, table.dump_gain_1_s, _dipole_max(scenario),
             np.radians(table.min_elevation_deg),
             _reference(table, ctx), table.period_s,
@@ -124,10 +124,10 @@ def check_visibility(table, ctx):
         return None
     r_target, up = target_ecef(np.radians(table.target_lat_deg), np.radians(table.target_lon_deg), table.target_height_m)
     t_final = ctx.scenario.sim.t_final_s
-    gmst0 = epoch(ctx)[1]
+    earth = epoch(ctx).earth
     rises, metrics = [], {}
     for name, r, v in zip(ctx.names, ctx.r_eci_m, ctx.v_eci_m_s):
-        t = first_visible_s(r, v, r_target, up, gmst0, np.radians(table.min_elevation_deg), max(t_final, 86400.0),
+        t = first_visible_s(r, v, r_target, up, earth, np.radians(table.min_elevation_deg), max(t_final, 86400.0),
                             orbit.mu_m3_s2, orbit.j2 if orbit.gravity == "j2" else 0.0, orbit.r_body_m)
         rises.append((name, t))
         metrics[f"target_rise_s_{name}"] = float("nan") if t is None else t

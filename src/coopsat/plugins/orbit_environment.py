@@ -89,7 +89,7 @@ def _harris_priester(table, ctx):
         heights, rho_min, rho_max = harris_priester_table(table.f107)
     except ValueError as exc:
         raise DesignError(f"disturbances: drag: {exc}") from None
-    return HarrisPriesterAtmosphere(*as_arrays((heights, rho_min, rho_max, table.hp_exponent, epoch(ctx)[0])))
+    return HarrisPriesterAtmosphere(*as_arrays((heights, rho_min, rho_max, table.hp_exponent, epoch(ctx).jd_tt)))
 
 
 def _exponential(table, ctx):
@@ -132,7 +132,7 @@ def _build_gravity_field(table, ctx):
         field = egm2008(table.degree, table.order)
     except ValueError as exc:
         raise DesignError(f"disturbances: gravity-field: {exc}") from None
-    return GravityField(*as_arrays((field.c, field.s, field.gm_m3_s2, field.radius_m, epoch(ctx)[1])))
+    return GravityField(*as_arrays((field.c, field.s, field.gm_m3_s2, field.radius_m, epoch(ctx).earth)))
 
 
 def _build_third_body(table, ctx):
@@ -143,7 +143,7 @@ def _build_third_body(table, ctx):
 
     require_earth_translation(ctx, "third-body", force=False)
     mu = {"sun": MU_SUN_M3_S2, "moon": MU_MOON_M3_S2}
-    return ThirdBodies(*as_arrays(([mu[b] for b in table.bodies], epoch(ctx)[0])), bodies=tuple(table.bodies))
+    return ThirdBodies(*as_arrays(([mu[b] for b in table.bodies], epoch(ctx).jd_tt)), bodies=tuple(table.bodies))
 
 
 def _build_drag(table, ctx):
@@ -175,7 +175,7 @@ def check_ephemeris(table, ctx):
     """The analytic Sun and Moon against JPL DE421 over the run (the ``ephemeris`` extra)."""
     from coopsat.astro.ephemeris import ephemeris_difference
 
-    jd0 = epoch(ctx)[0]
+    jd0 = epoch(ctx).jd_tt
     try:
         diff = ephemeris_difference(jd0, jd0 + ctx.scenario.sim.t_final_s / 86400.0, samples=9)
     except ValueError as exc:  # outside DE421's 1899–2053

@@ -231,7 +231,7 @@ def _build_sun_sensor(table, ctx):
     from coopsat.sim.system import as_arrays
 
     every = _every(table, ctx)
-    return Part(*as_arrays((_per_axis(table.sigma_deg, np.pi / 180.0), epoch(ctx)[0])), every=every)
+    return Part(*as_arrays((_per_axis(table.sigma_deg, np.pi / 180.0), epoch(ctx).jd_tt)), every=every)
 
 
 def _build_magnetometer(table, ctx):
@@ -240,7 +240,7 @@ def _build_magnetometer(table, ctx):
     from coopsat.sim.system import as_arrays
 
     every = _every(table, ctx)
-    return Part(*as_arrays((_per_axis(table.sigma_t), _per_axis(table.bias_t), epoch(ctx)[1])), every=every)
+    return Part(*as_arrays((_per_axis(table.sigma_t), _per_axis(table.bias_t), epoch(ctx).earth)), every=every)
 
 
 register(Plugin("sensor", "star-tracker", StarTracker, _build_star_tracker))

@@ -6,13 +6,11 @@ model, sensors, actuators, disturbances) builds its in-loop part and runs its de
 checks (:mod:`coopsat.plugins`). This module never names a kind.
 """
 
-import math
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from coopsat.astro.kepler import elements_to_rv
 from coopsat.network.graphs import graph_adjacency
 from coopsat.network.topology import GraphError
 from coopsat.plugins import BuildContext, DesignCheck, DesignError, plugin_for
@@ -104,36 +102,37 @@ def build_adjacency(network, names, where="network"):
         raise ScenarioError(str(err)) from None
 
 
-def _absolute_state(sc, orbit):
-    """ECI position, m, and velocity, m/s, of a spacecraft whose own state is given."""
-    if sc.elements is not None:
-        el = sc.elements
-        return elements_to_rv(
-            el.a_m, el.e, math.radians(el.i_deg), math.radians(el.raan_deg), math.radians(el.argp_deg),
-            math.radians(el.mean_anomaly_deg), orbit.mu_m3_s2,
-        )
-    return np.asarray(sc.r_eci_m, dtype=float), np.asarray(sc.v_eci_m_s, dtype=float)
+def _initial_state(place, fn, *args):
+    """``fn(*args)`` of :mod:`coopsat.scenarios.initial_states` as (r, v); its one-line
+    ValueError, or a floating-point failure, becomes a ScenarioError naming the field."""
+    try:
+        field, r, v = fn(*args)
+    except DesignError:  # the epoch itself (orbit.epoch_*), named by run_clock: the caller's
+        raise
+    except ValueError as err:
+        sc = args[0]
+        field = next((f for f in ("tle", "oem", "roe", "elements", "relative") if getattr(sc, f) is not None), "")
+        raise ScenarioError(f"{place}.{field}: {err}" if field else f"{place}: {err}") from None
+    except ArithmeticError as err:
+        raise ScenarioError(f"{place}: {arithmetic_message(err, args[0])}") from None
+    return np.asarray(r, dtype=float), np.asarray(v, dtype=float)
 
 
-def _translational_states(spacecraft, orbit):
-    """ECI (r, v) of every spacecraft; one given ``relative`` to another is placed in that
-    one's LVLH frame (:func:`coopsat.geometry.frames.lvlh_to_eci`)."""
-    from coopsat.geometry.frames import lvlh_to_eci  # jax: only for runs with an orbit
+def _translational_states(spacecraft, orbit, clock):
+    """Inertial (r, v) of every spacecraft, by the form its state is given in
+    (:mod:`coopsat.scenarios.initial_states`); ``clock()`` the run's clock, for the forms that
+    need a date."""
+    from coopsat.scenarios.initial_states import absolute_state, relative_state
 
     if orbit is None:
         return [(np.zeros(3), np.zeros(3)) for _ in spacecraft]
-    absolute = {sc.name: _named_arithmetic(f"spacecraft[{k}]", sc, _absolute_state, sc, orbit)
-                for k, sc in enumerate(spacecraft) if sc.relative is None}
-    out = []
-    for k, sc in enumerate(spacecraft):
-        if sc.relative is None:
-            out.append(absolute[sc.name])
-            continue
-        r_ref, v_ref = absolute[sc.relative.to]
-        rho, rho_dot = np.asarray(sc.relative.rho_lvlh_m), np.asarray(sc.relative.rho_dot_lvlh_m_s)
-        r, v = _named_arithmetic(f"spacecraft[{k}].relative", sc.relative, lvlh_to_eci, r_ref, v_ref, rho, rho_dot)
-        out.append((np.asarray(r), np.asarray(v)))
-    return out
+    absolute = {sc.name: _initial_state(f"spacecraft[{k}]", absolute_state, sc, orbit, clock)
+                for k, sc in enumerate(spacecraft) if sc.reference is None}
+    return [
+        absolute[sc.name] if sc.reference is None
+        else _initial_state(f"spacecraft[{k}]", relative_state, sc, orbit, clock, *absolute[sc.reference])
+        for k, sc in enumerate(spacecraft)
+    ]
 
 
 def _named_arithmetic(place, table, fn, *args):
@@ -245,7 +244,14 @@ def _context(scenario):
     times, s (the first graph's at 0); and every spacecraft's ECI (r, v)."""
     names = [sc.name for sc in scenario.spacecraft]
     inertia = np.stack([inertia_matrix(sc.inertia_kgm2) for sc in scenario.spacecraft])
-    rv = _translational_states(scenario.spacecraft, scenario.orbit)
+    from coopsat.plugins.earth_environment import run_clock, run_epoch_of
+
+    try:
+        if scenario.orbit is not None:
+            run_epoch_of(scenario.orbit)  # an epoch that cannot be placed on TT fails here, not after the run
+        rv = _translational_states(scenario.spacecraft, scenario.orbit, lambda: run_clock(scenario.orbit, scenario.sim.t_final_s))
+    except DesignError as err:
+        raise ScenarioError(str(err)) from None
     places = ["network"] + [f"network.switches[{k}]" for k in range(len(scenario.network.switches))]
     graphs = [scenario.network, *scenario.network.switches]
     adjacencies = [build_adjacency(g, names, where) for g, where in zip(graphs, places)]

@@ -90,7 +90,18 @@ def read_raw(name_or_path, _depth=0):
     else:
         text, origin, default_name = bundled_text(str(name_or_path)), clip_echo(name_or_path), str(name_or_path)
     raw = parse_toml(text, origin)
+    if path.suffix == ".toml":
+        _anchor_files(raw, path.parent)
     return resolve_extends(raw, path.parent if path.suffix == ".toml" else None, origin, _depth), default_name
+
+
+def _anchor_files(raw, folder):
+    """Files a scenario names (``[spacecraft.oem] file``) relative to its own folder, made
+    absolute in place, so that they mean the same from any working folder and after ``extends``."""
+    for sc in raw.get("spacecraft", []) if isinstance(raw.get("spacecraft"), list) else []:
+        table = sc.get("oem") if isinstance(sc, dict) else None
+        if isinstance(table, dict) and isinstance(table.get("file"), str) and not Path(table["file"]).is_absolute():
+            table["file"] = str((Path(folder) / table["file"]).resolve())
 
 
 def parse_toml(text, origin="scenario"):

@@ -138,6 +138,33 @@ class Relative(Table):
     )
 
 
+class Tle(Table):
+    """``[spacecraft.tle]``: the initial state from a two-line element set (SGP4 at the run's
+    epoch, TEME turned into the inertial frame; docs/time-and-frames.md)."""
+
+    line1: str = Field(description="Line 1, 69 columns as published (checksum in column 69).")
+    line2: str = Field(description="Line 2, 69 columns.")
+    source: str = Field("", description="Where the set comes from (catalogue, date fetched): kept with the run.")
+
+
+class OemState(Table):
+    """``[spacecraft.oem]``: the initial state read from a CCSDS OEM file (as ``coopsat export``
+    writes), interpolated to the run's epoch."""
+
+    file: str = Field(description="The OEM file (KVN); a relative path is relative to the scenario file's folder.")
+    object: str | None = Field(None, description="OBJECT_NAME of the segment to read (default: the file's only object).")
+
+
+class Roe(Table):
+    """``[spacecraft.roe]``: the initial state as quasi-nonsingular relative orbital elements
+    about another spacecraft (osculating; coopsat.astro.roe)."""
+
+    to: str = Field(description="The chief (its own state given absolutely: r_eci_m/v_eci_m_s, elements, tle or oem).")
+    a_droe_m: Record(float, float, float, float, float, float) = Field(
+        description="[a δa, a δλ, a δex, a δey, a δix, a δiy], m: the ROE times the chief's semi-major axis."
+    )
+
+
 class SpacecraftDefaults(Table):
     """``[spacecraft_defaults]``: fields every ``[[spacecraft]]`` inherits unless it sets them."""
 
@@ -167,12 +194,28 @@ class Spacecraft(Table):
     v_eci_m_s: Bounded3(MAX_SPEED_M_S, "m/s") | None = None
     elements: Elements | None = None
     relative: Relative | None = None
+    tle: Tle | None = None
+    oem: OemState | None = None
+    roe: Roe | None = None
+
+    @property
+    def reference(self):
+        """The spacecraft this one's initial state is given relative to (``relative`` or ``roe``), or None."""
+        table = self.relative or self.roe
+        return None if table is None else table.to
+
+    @property
+    def has_state(self):
+        """Whether the file gives this spacecraft's translational state in any form."""
+        return any(v is not None for v in (self.r_eci_m, self.elements, self.relative, self.tle, self.oem, self.roe))
 
     @model_validator(mode="after")
     def _one_translational_source(self):
-        given = [k for k, v in (("elements", self.elements), ("r_eci_m/v_eci_m_s", self.r_eci_m), ("relative", self.relative)) if v]
+        sources = (("elements", self.elements), ("r_eci_m/v_eci_m_s", self.r_eci_m), ("relative", self.relative),
+                   ("tle", self.tle), ("oem", self.oem), ("roe", self.roe))
+        given = [k for k, v in sources if v is not None]
         if len(given) > 1:
-            raise ValueError(f"give one of elements, r_eci_m/v_eci_m_s or relative, not {' and '.join(given)}")
+            raise ValueError(f"give one of elements, r_eci_m/v_eci_m_s, tle, oem, relative or roe, not {' and '.join(given)}")
         if (self.r_eci_m is None) != (self.v_eci_m_s is None):
             raise ValueError("r_eci_m and v_eci_m_s go together")
         return self
@@ -187,19 +230,44 @@ class Orbit(Table):
     r_body_m: float = Field(R_EARTH_M, gt=0, le=1e9, description="Central body's equatorial radius, m.")
     epoch_utc: str = Field(
         "2000-01-01T12:00:00",
-        description="UTC date-time of t = 0 (ISO 8601): the Earth's rotation angle, the Sun's direction.",
+        description="UTC date-time of t = 0 (ISO 8601): the Earth's orientation, the Sun's and Moon's places. "
+        "The run's clock counts TT seconds from it (docs/time-and-frames.md).",
+    )
+    epoch_tt: str | None = Field(None, description="t = 0 in TT instead (ISO 8601); give one of epoch_utc, epoch_tt, epoch_tai.")
+    epoch_tai: str | None = Field(None, description="t = 0 in TAI instead (ISO 8601).")
+    # The names of coopsat.astro.earth_orientation.EARTH_ORIENTATION_MODELS (a test keeps them equal;
+    # that module imports JAX, which validating a file does not need).
+    earth_orientation: Literal["iau2006", "gmst82"] = Field(
+        "iau2006",
+        description="The Earth's orientation: IAU 2006/2000A with IERS UT1 and polar motion (GCRF ↔ ITRF), or the "
+        "papers' turn about z by GMST (gmst82, SPEC §0).",
     )
 
-    @field_validator("epoch_utc")
+    @field_validator("epoch_utc", "epoch_tt", "epoch_tai")
     @classmethod
     def _iso_date(cls, v):
         from datetime import datetime
 
         try:
-            datetime.fromisoformat(v)
+            datetime.fromisoformat(v) if v is not None else None
         except ValueError:
             raise ValueError(f"'{v}' is not an ISO 8601 date-time (e.g. 2018-06-21T04:00:00)") from None
         return v
+
+    @model_validator(mode="after")
+    def _one_epoch(self):
+        given = [f for f in ("epoch_utc", "epoch_tt", "epoch_tai") if f in self.model_fields_set and getattr(self, f)]
+        if len(given) > 1:
+            raise ValueError(f"give one of epoch_utc, epoch_tt, epoch_tai, not {' and '.join(given)}")
+        return self
+
+    @property
+    def epoch(self):
+        """(ISO string, scale) of t = 0: ``("…", "tt")`` when ``epoch_tt`` is given, and so on."""
+        for scale in ("tt", "tai"):
+            if getattr(self, f"epoch_{scale}") is not None:
+                return getattr(self, f"epoch_{scale}"), scale
+        return self.epoch_utc, "utc"
 
 
 class Graph(Table):
@@ -362,19 +430,20 @@ class Scenario(Table):
         names = [s.name for s in self.spacecraft]
         if len(set(names)) != len(names):
             raise ValueError(f"spacecraft: names must be unique, got {names}")
-        has_rv = [s.r_eci_m is not None or s.elements is not None or s.relative is not None for s in self.spacecraft]
-        absolute = {s.name for s in self.spacecraft if s.r_eci_m is not None or s.elements is not None}
+        has_rv = [s.has_state for s in self.spacecraft]
+        absolute = {s.name for s in self.spacecraft if s.has_state and s.reference is None}
         for k, s in enumerate(self.spacecraft):
-            if s.relative is not None and s.relative.to not in absolute:
+            if s.reference is not None and s.reference not in absolute:
+                field = "relative" if s.relative is not None else "roe"
                 raise ValueError(
-                    f"spacecraft[{k}].relative.to: '{s.relative.to}' must name a spacecraft whose own state is given "
-                    f"(r_eci_m/v_eci_m_s or elements): {', '.join(sorted(absolute)) or 'none is'}"
+                    f"spacecraft[{k}].{field}.to: '{s.reference}' must name a spacecraft whose own state is given "
+                    f"(r_eci_m/v_eci_m_s, elements, tle or oem): {', '.join(sorted(absolute)) or 'none is'}"
                 )
         if self.orbit is None and any(has_rv):
             raise ValueError("spacecraft: a position or orbital elements are given but there is no [orbit] table")
         if self.orbit is not None and not all(has_rv):
             missing = [s.name for s, h in zip(self.spacecraft, has_rv) if not h]
-            raise ValueError(f"orbit: every spacecraft needs r_eci_m/v_eci_m_s, elements or relative; missing for {missing}")
+            raise ValueError(f"orbit: every spacecraft needs r_eci_m/v_eci_m_s, elements, tle, oem, relative or roe; missing for {missing}")
         period = self.control_period_s
         _whole_multiple(period, self.sim.dt_s, "controller.period_s", "sim.dt_s")
         _whole_multiple(self.record_interval_s, period, "sim.record_interval_s", "the control period")

@@ -12,8 +12,8 @@ computed from the plant state and the time, component-major ``(k, n)``:
 import jax.numpy as jnp
 
 from coopsat.core.parts import OutputSpec, part
-from coopsat.astro.earth import rotation_angle_rad
-from coopsat.astro.magnetic import dipole_field_eci
+from coopsat.astro.earth_orientation import EarthOrientation
+from coopsat.astro.magnetic import dipole_field_gcrf
 from coopsat.astro.sun import sun_position_eci_m, sunlit
 from coopsat.geometry.quaternion import quat_rotate_inverse
 from coopsat.sensors.noise import white_noise
@@ -84,15 +84,15 @@ class Magnetometer:
         Standard deviation of the noise per body axis, T.
     bias_t : (3,)
         Constant bias, body axes, T.
-    gmst0_rad : scalar
-        Greenwich sidereal angle at t = 0, rad.
+    earth : EarthOrientation
+        The Earth's orientation over the run.
     every : int
         Static: control periods between updates.
     """
 
     sigma_t: jnp.ndarray
     bias_t: jnp.ndarray
-    gmst0_rad: jnp.ndarray
+    earth: EarthOrientation
     every: int = 1
 
     quantity = "b_b"
@@ -100,7 +100,7 @@ class Magnetometer:
 
     def truth(self, y, x, t=0.0):
         """True field in body axes, (3, n), T."""
-        return quat_rotate_inverse(x.q_bi, dipole_field_eci(x.r_eci, rotation_angle_rad(t, self.gmst0_rad), 0), 0)
+        return quat_rotate_inverse(x.q_bi, dipole_field_gcrf(x.r_eci, t, self.earth, 0), 0)
 
     def init(self, truth_value, n):
         return ()

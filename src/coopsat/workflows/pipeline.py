@@ -203,6 +203,7 @@ def record_dataset(built, out, failures=None, **attrs):
     the design checks and the paper's series; ``attrs``: more global attributes (str, int or
     float), after the standard ones. A paper module whose series raise is appended to
     ``failures`` (a list of :class:`~coopsat.analysis.stages.StageFailure`; None: it raises)."""
+    from coopsat.plugins.earth_environment import time_attributes
     from coopsat.sim.engine import output_specs
     from coopsat.sim.recorder import to_dataset
 
@@ -216,6 +217,7 @@ def record_dataset(built, out, failures=None, **attrs):
         "compile_time_s": out.compile_s,
         "run_time_s": out.run_s,
         "conventions": "SI units; quaternions scalar-first, Hamilton, body to inertial",
+        **time_attributes(scenario, built.system),
         **attrs,
     }
     for check in built.checks.values():

@@ -13,6 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from coopsat.actuators.magnetorquers import Magnetorquers, magnetorquer_torque_b
 from coopsat.analysis.metrics import inertial_angular_momentum_nms
+from coopsat.astro.earth_orientation import z_rotation
 from coopsat.astro.earth import OMEGA_EARTH_RAD_S, gmst_rad, julian_date_utc
 from coopsat.dynamics.plant import PlantState
 from coopsat.workflows.pipeline import prepare, simulate_built
@@ -21,6 +22,7 @@ from earth_reference import hand_dipole_eci, to_body
 
 COOP = "observation-cooperative"
 GMST0 = gmst_rad(julian_date_utc("2018-07-12T03:00:00"))
+EARTH = z_rotation(GMST0, 86400.0)  # the papers' Earth: θ = GMST0 + ω_E t
 
 
 def test_torque_is_the_clipped_dipole_cross_the_field_per_axis():
@@ -57,7 +59,7 @@ def _state(q, r):
 
 
 def test_plan_holds_m_cross_the_body_field_for_the_whole_period_and_counts_its_impulse():
-    part = Magnetorquers(jnp.asarray(2.5), jnp.asarray(GMST0))
+    part = Magnetorquers(jnp.asarray(2.5), EARTH)
     rng = np.random.default_rng(2)
     q = rng.normal(size=(2, 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
@@ -104,7 +106,9 @@ def magnetic_only_run(tmp_path_factory):
                                          "residual-dipole", "random-torque"))
     path = tmp_path_factory.mktemp("magnetic") / "magnetic-only.toml"
     path.write_text(text.replace('name = "observation-cooperative"', 'name = "magnetic-only"'), encoding="utf-8")
-    built = prepare(load_scenario(path, ["sim.t_final_s=3", "sim.record_interval_s=0.1", "controller.dump_gain_1_s=1.0"]))
+    # The papers' Earth (a z turn by GMST), which the hand-written field below follows.
+    built = prepare(load_scenario(path, ["sim.t_final_s=3", "sim.record_interval_s=0.1", "controller.dump_gain_1_s=1.0",
+                                         "orbit.earth_orientation=gmst82"]))
     ds, _ = simulate_built(built)
     return built, ds
 

@@ -126,3 +126,13 @@ def test_outside_the_iers_table_the_source_says_so():
     oriented = EARTH_ORIENTATION_MODELS["iau2006"](epoch, 3600.0)
     assert "outside the table" in oriented.eop_source
     assert erfa.era00(2438761.5, 0.0) == pytest.approx(float(np.mod(oriented.table.angle_rad[0], 2 * np.pi)), abs=1e-3)
+
+
+def test_the_scenario_field_names_every_model():
+    from typing import get_args
+
+    from coopsat.astro.earth_orientation import INERTIAL_FRAMES
+    from coopsat.scenarios.schema import Orbit
+
+    names = set(get_args(Orbit.model_fields["earth_orientation"].annotation))
+    assert names == set(EARTH_ORIENTATION_MODELS) == set(INERTIAL_FRAMES)

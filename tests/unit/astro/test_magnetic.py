@@ -14,7 +14,16 @@ import pymap3d
 import pytest
 
 from coopsat.astro.earth import ecef_to_eci
-from coopsat.astro.magnetic import IGRF2020_DIPOLE_T, IGRF_RADIUS_M, dipole_field_ecef, dipole_field_eci
+from coopsat.astro.earth import OMEGA_EARTH_RAD_S
+from coopsat.astro.earth_orientation import z_rotation
+from coopsat.astro.magnetic import IGRF2020_DIPOLE_T, IGRF_RADIUS_M, dipole_field_ecef, dipole_field_gcrf
+
+TURN = z_rotation(0.0, 3600.0)  # θ = ω_E t: a Greenwich angle θ is the time θ / ω_E
+
+
+def dipole_field_eci(r_eci_m, theta_rad, axis=-1):
+    """The field at Greenwich angles θ, through the run-time function and a bare z turn."""
+    return dipole_field_gcrf(r_eci_m, jnp.asarray(theta_rad) / OMEGA_EARTH_RAD_S, TURN, axis)
 
 # IGRF-13, epoch 2020.0 (IGRF column of igrf13coeffs.txt; Alken et al., EPS 73:49, 2021), nT.
 G10_NT, G11_NT, H11_NT = -29404.8, -1450.9, 4652.5

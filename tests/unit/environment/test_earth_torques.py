@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from coopsat.actuators.magnetorquers import magnetorquer_torque_b
+from coopsat.astro.earth_orientation import z_rotation
 from coopsat.astro.earth import OMEGA_EARTH_RAD_S, WGS84_A_M, WGS84_F, gmst_rad, julian_date_utc
 from coopsat.astro.sun import sun_position_eci_m
 from coopsat.dynamics.plant import PlantState
@@ -87,6 +88,7 @@ COOP = "observation-cooperative"
 EPOCH = "2018-07-12T03:00:00"  # observation-cooperative's [orbit] epoch_utc
 JD0 = julian_date_utc(EPOCH)
 GMST0 = gmst_rad(JD0)
+EARTH = z_rotation(GMST0, 86400.0)  # the papers' Earth: θ = GMST0 + ω_E t
 AU = 149597870700.0
 P_1AU = 4.56e-6
 
@@ -199,7 +201,7 @@ def test_solar_pressure_part_is_zero_in_the_earth_shadow_and_the_hand_value_in_s
 
 def test_residual_dipole_part_is_m_cross_the_body_field_of_the_turning_earth():
     dipole = np.array([0.02, -0.05, 0.03])
-    part = ResidualDipoleTorque(jnp.asarray(dipole.reshape(3, 1)), jnp.asarray(GMST0))
+    part = ResidualDipoleTorque(jnp.asarray(dipole.reshape(3, 1)), EARTH)
     q = random_quats(2, 13)
     x = _state(q, [R_EQ, [4.0e6, -3.0e6, 4.5e6]], [V_EQ, V_POLE])
     t = 1234.5
@@ -235,7 +237,7 @@ def _coop_states(t):
 
 def _coop_parts():
     dipole = np.asarray(_coop_tables()["residual-dipole"]["dipole_am2"], float).reshape(3, 1)
-    return [_aero_part(), _srp_part(), ResidualDipoleTorque(jnp.asarray(dipole), jnp.asarray(GMST0))]
+    return [_aero_part(), _srp_part(), ResidualDipoleTorque(jnp.asarray(dipole), EARTH)]
 
 
 def test_observation_cooperative_torques_are_of_the_expected_order():

@@ -47,7 +47,7 @@ def _dataset(run_dir):
 
 
 def _epochs(ds):
-    epoch = np.datetime64("2000-01-01T12:00:00", "us")
+    epoch = np.datetime64("2000-01-01T12:01:04.184", "us")  # epoch_utc 12:00:00 + 32 leap seconds + 32.184 s, on TT
     return epoch + np.round(ds.time.values * 1e6).astype(np.int64).astype("timedelta64[us]")
 
 
@@ -62,7 +62,7 @@ def test_the_oem_reads_back_with_both_libraries_to_the_run_states(gravity_gradie
 
     (segment,) = NdmIo().from_path(path).body.segment
     meta = segment.metadata
-    assert (meta.object_name, meta.center_name, meta.ref_frame, meta.time_system) == ("sat1", "EARTH", "EME2000", "UTC")
+    assert (meta.object_name, meta.center_name, meta.ref_frame, meta.time_system) == ("sat1", "EARTH", "GCRF", "TT")
     states = segment.data.state_vector
     r = np.array([[s.x.value, s.y.value, s.z.value] for s in states])
     v = np.array([[s.x_dot.value, s.y_dot.value, s.z_dot.value] for s in states])
@@ -71,10 +71,10 @@ def test_the_oem_reads_back_with_both_libraries_to_the_run_states(gravity_gradie
     assert [np.datetime64(s.epoch, "us") for s in states] == list(_epochs(ds))
 
     (other,) = list(oem_lib.OrbitEphemerisMessage.open(path))
-    assert other.metadata["REF_FRAME"] == "EME2000" and other.metadata["CENTER_NAME"] == "EARTH"
+    assert other.metadata["REF_FRAME"] == "GCRF" and other.metadata["CENTER_NAME"] == "EARTH"
     np.testing.assert_allclose(np.array([s.position for s in other]), r_km, rtol=RTOL_KM, atol=0)
     np.testing.assert_allclose(np.array([s.velocity for s in other]), v_km_s, rtol=RTOL_KM, atol=0)
-    assert all(s.epoch.scale == "utc" for s in other)
+    assert all(s.epoch.scale == "tt" for s in other)
     assert [np.datetime64(s.epoch.isot, "us") for s in other] == list(_epochs(ds))
 
 
@@ -107,8 +107,8 @@ def test_the_aem_reads_back_to_the_run_quaternions_exactly(gravity_gradient):
     meta, lines = _kvn_quaternions(path.read_text())
     assert {k: meta[k] for k in ("CCSDS_AEM_VERS", "REF_FRAME_A", "REF_FRAME_B", "ATTITUDE_DIR", "ATTITUDE_TYPE",
                                  "QUATERNION_TYPE", "TIME_SYSTEM")} == {
-        "CCSDS_AEM_VERS": "1.0", "REF_FRAME_A": "EME2000", "REF_FRAME_B": "SC_BODY_1", "ATTITUDE_DIR": "A2B",
-        "ATTITUDE_TYPE": "QUATERNION", "QUATERNION_TYPE": "FIRST", "TIME_SYSTEM": "UTC"}
+        "CCSDS_AEM_VERS": "1.0", "REF_FRAME_A": "GCRF", "REF_FRAME_B": "SC_BODY_1", "ATTITUDE_DIR": "A2B",
+        "ATTITUDE_TYPE": "QUATERNION", "QUATERNION_TYPE": "FIRST", "TIME_SYSTEM": "TT"}
     np.testing.assert_array_equal(np.array([q for _, q in lines]), q_bi)
 
 
@@ -134,7 +134,9 @@ def test_the_aem_quaternion_is_the_adm_rotation_from_inertial_to_body(gravity_gr
 def test_the_czml_holds_the_run_in_earth_fixed_axes(gravity_gradient):
     from czml3 import Document
 
-    from coopsat.astro.earth import OMEGA_EARTH_RAD_S, ecef_to_eci, eci_to_ecef, gmst_rad, julian_date_utc
+    import erfa
+
+    from coopsat.astro.timescales import earth_orientation_parameters, run_epoch, utc_from_tt
     from coopsat.geometry.quaternion import quat_rotate
 
     path = export_run(gravity_gradient, "czml")
@@ -143,18 +145,26 @@ def test_the_czml_holds_the_run_in_earth_fixed_axes(gravity_gradient):
     assert [p.id for p in packets] == ["document", "sat1"]
     raw = json.loads(path.read_text())[1]
     assert raw["position"]["referenceFrame"] == "FIXED" and raw["position"]["epoch"] == "2000-01-01T12:00:00.000000Z"
-    theta = gmst_rad(julian_date_utc("2000-01-01T12:00:00")) + OMEGA_EARTH_RAD_S * ds.time.values
+    # SOFA's own GCRS → ITRS at each sample (not the run's interpolated table), the epoch's EOP.
+    epoch = run_epoch("2000-01-01T12:00:00")
+    utc = utc_from_tt(*epoch.tt)
+    eop = earth_orientation_parameters(*utc)
+    ut1_offset_d = sum(utc) - epoch.jd_tt + eop.ut1_utc_s[0] / 86400.0
+    to_fixed = np.stack([erfa.c2t06a(epoch.tt[0], epoch.tt[1] + t / 86400.0, epoch.tt[0],
+                                     epoch.tt[1] + t / 86400.0 + ut1_offset_d, eop.xp_rad[0], eop.yp_rad[0])
+                         for t in ds.time.values])
 
     samples = np.array(raw["position"]["cartesian"]).reshape(-1, 4)
     np.testing.assert_array_equal(samples[:, 0], ds.time.values)
-    np.testing.assert_allclose(ecef_to_eci(samples[:, 1:], theta), ds.r_eci.values[:, 0], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(np.einsum("tji,tj->ti", to_fixed, samples[:, 1:]), ds.r_eci.values[:, 0], rtol=0, atol=1e-3)
 
     q_xyzw = np.array(raw["orientation"]["unitQuaternion"]).reshape(-1, 5)[:, 1:]
     q_fixed = q_xyzw[:, [3, 0, 1, 2]]
     q_bi = ds.q.values[:, 0]
     for axis in np.eye(3):
         body = np.broadcast_to(axis, (len(q_bi), 3))
-        np.testing.assert_allclose(quat_rotate(q_fixed, body), eci_to_ecef(quat_rotate(q_bi, body), theta), atol=1e-12)
+        np.testing.assert_allclose(quat_rotate(q_fixed, body), np.einsum("tij,tj->ti", to_fixed, quat_rotate(q_bi, body)),
+                                   atol=1e-9)
 
 
 def test_a_formation_gets_one_message_per_spacecraft(tmp_path_factory):

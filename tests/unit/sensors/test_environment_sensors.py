@@ -5,6 +5,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from coopsat.astro.earth_orientation import z_rotation
 from coopsat.astro.earth import OMEGA_EARTH_RAD_S, WGS84_A_M, gmst_rad, julian_date_utc
 from coopsat.astro.sun import sun_position_eci_m
 from coopsat.dynamics.plant import PlantState
@@ -13,6 +14,7 @@ from earth_reference import hand_dipole_eci, random_quats, to_body
 
 JD0 = julian_date_utc("2018-07-12T03:00:00")
 GMST0 = gmst_rad(JD0)
+EARTH = z_rotation(GMST0, 86400.0)  # the papers' Earth: θ = GMST0 + ω_E t
 N_DRAWS = 40_000  # 4 keys × 10 000 spacecraft (each its own stream)
 
 
@@ -121,7 +123,7 @@ def test_sun_sensor_isotropic_error_is_two_sigma_squared_in_any_direction():
 
 
 def test_magnetometer_truth_is_the_body_field_of_the_turning_earth():
-    part = Magnetometer(jnp.full(3, 3e-10), jnp.zeros(3), jnp.asarray(GMST0))
+    part = Magnetometer(jnp.full(3, 3e-10), jnp.zeros(3), EARTH)
     q = random_quats(2, 24)
     r = np.array([[RADIUS, 0.0, 0.0], [2.0e6, -4.0e6, 5.3e6]])
     t = 900.0
@@ -136,7 +138,7 @@ def test_magnetometer_truth_is_the_body_field_of_the_turning_earth():
 def test_magnetometer_noise_and_bias_have_the_stated_statistics():
     sigma = np.array([1e-9, 2e-9, 5e-10])
     bias = np.array([1e-7, -2e-7, 3e-8])
-    part = Magnetometer(jnp.asarray(sigma), jnp.asarray(bias), jnp.asarray(GMST0))
+    part = Magnetometer(jnp.asarray(sigma), jnp.asarray(bias), EARTH)
     b = np.array([2.1e-5, -0.7e-5, 3.3e-5])
     m = _draws(part, jnp.asarray(np.tile(b[:, None], (1, N_DRAWS // 4))))
     n = m.shape[1]
@@ -145,14 +147,14 @@ def test_magnetometer_noise_and_bias_have_the_stated_statistics():
     assert np.all(np.abs(error.mean(axis=1) - bias) < 5 * sigma / np.sqrt(n))
     assert abs(np.corrcoef(error)[0, 1]) < 5 / np.sqrt(n)
     # Without noise: the truth plus the bias, exactly.
-    quiet = Magnetometer(jnp.zeros(3), jnp.asarray(bias), jnp.asarray(GMST0))
+    quiet = Magnetometer(jnp.zeros(3), jnp.asarray(bias), EARTH)
     got = np.asarray(quiet.measure(jnp.asarray(b[:, None]), None, (), jax.random.PRNGKey(5))[0])
     np.testing.assert_array_equal(got[:, 0], b + bias)
 
 
 def test_sensors_trace_under_jit():
     sun = SunSensor(jnp.full(3, 1e-3), jnp.asarray(JD0))
-    mag = Magnetometer(jnp.full(3, 3e-10), jnp.zeros(3), jnp.asarray(GMST0))
+    mag = Magnetometer(jnp.full(3, 3e-10), jnp.zeros(3), EARTH)
     _, r = _sun_positions()
     x = _state(random_quats(3, 25), r)
     key = jax.random.PRNGKey(7)

@@ -1,16 +1,13 @@
-"""The rotating Earth: time scales, sidereal time, the WGS-84 ellipsoid (SPEC §0, §5).
+"""The Earth's figure and the papers' sidereal time: the WGS-84 ellipsoid, GMST (SPEC §0, §5).
 
-ECEF turns about the ECI z axis by the Greenwich sidereal angle ``θ(t) = θ0 + ω_E t`` (SPEC §0:
-no precession, nutation or polar motion; UT1 is taken equal to UTC, an error below 0.9 s of
-Earth rotation, 0.4 km at the equator).
+How the Earth-fixed frame turns in the inertial one is :mod:`coopsat.astro.earth_orientation`
+(IAU 2006/2000A, or the papers' turn about z by :func:`gmst_rad`, with UT1 taken equal to UTC).
 
 The functions of the closed loop (:func:`geodetic_to_ecef`, :func:`up_ecef`,
-:func:`rotation_angle_rad`, :func:`ecef_to_eci`, :func:`eci_to_ecef`,
-:func:`earth_fixed_point_eci`, :func:`elevation_rad`, :func:`geocentric_paper_eci`) are written
-with ``jax.numpy`` and trace under ``jit``; they also take NumPy arrays. Vector functions take
-``axis``, the component axis (``axis=0``: the component-major ``(3, n)`` layout of the compiled
-loop). :func:`ecef_to_geodetic`, :func:`julian_date_utc` and :func:`gmst_rad` are design-time
-NumPy.
+:func:`elevation_rad`, :func:`geocentric_paper_eci`) are written with ``jax.numpy`` and trace
+under ``jit``; they also take NumPy arrays. Vector functions take ``axis``, the component axis
+(``axis=0``: the component-major ``(3, n)`` layout of the compiled loop).
+:func:`ecef_to_geodetic`, :func:`julian_date_utc` and :func:`gmst_rad` are design-time NumPy.
 """
 
 from datetime import datetime, timezone
@@ -90,18 +87,8 @@ def gmst_rad(jd_ut1):
     return float(np.mod(seconds / 240.0 * np.pi / 180.0, 2.0 * np.pi))
 
 
-# Component helpers, as in coopsat.geometry.quaternion: astro and geometry are sibling layers
-# (pyproject.toml [tool.importlinter]), so astro does not import them from there.
-def _split(x, axis):
-    """Components of ``x`` along ``axis`` as a tuple of arrays."""
-    return tuple(jnp.moveaxis(x, axis, 0))
-
-
-def _join(parts, axis):
-    """Inverse of :func:`_split`: stack components along ``axis``."""
-    return jnp.stack(jnp.broadcast_arrays(*parts), axis=axis)
-
-
+# As coopsat.geometry.quaternion's: astro and geometry are sibling layers (pyproject.toml
+# [tool.importlinter]), so astro does not import it from there.
 def _dot(a, b, axis):
     """Sum of the product of ``a`` and ``b`` along ``axis``."""
     return jnp.sum(a * b, axis=axis)
@@ -201,87 +188,6 @@ def up_ecef(lat_rad, lon_rad):
     cos_lat = jnp.cos(lat_rad)
     parts = jnp.broadcast_arrays(cos_lat * jnp.cos(lon_rad), cos_lat * jnp.sin(lon_rad), jnp.sin(lat_rad))
     return jnp.stack(parts, axis=-1)
-
-
-def rotation_angle_rad(t_s, gmst0_rad):
-    """Greenwich sidereal angle ``θ = θ0 + ω_E t``, rad (not wrapped), shape of ``t_s``.
-
-    Parameters
-    ----------
-    t_s : array_like
-        Time since the epoch at which the angle is ``gmst0_rad``, s.
-    gmst0_rad : array_like
-        GMST at the epoch, rad (:func:`gmst_rad`).
-    """
-    return gmst0_rad + OMEGA_EARTH_RAD_S * jnp.asarray(t_s)
-
-
-def _rotate_z(vec, angle_rad, axis):
-    """Components of ``vec`` in a frame turned by ``−angle`` about z: ``R3(−angle) vec``."""
-    x, y, z = _split(jnp.asarray(vec), axis)
-    c, s = jnp.cos(angle_rad), jnp.sin(angle_rad)
-    return _join([c * x - s * y, s * x + c * y, z], axis)
-
-
-def ecef_to_eci(vec_ecef, theta_rad, axis=-1):
-    """ECEF components of a vector to ECI components, ``v_eci = R3(−θ) v_ecef``.
-
-    Parameters
-    ----------
-    vec_ecef : array_like, shape (..., 3) (component ``axis``)
-        Any vector (position, direction) in ECEF components. Only the components are
-        rotated: a velocity relative to the rotating Earth does not become an inertial
-        velocity this way (see :func:`earth_fixed_point_eci`).
-    theta_rad : array_like
-        Greenwich sidereal angle, rad (:func:`rotation_angle_rad`); broadcasts against the
-        components (shape (...) for ``axis=-1``, (n,) against ``(3, n)`` for ``axis=0``).
-    axis : int
-        Component axis.
-
-    Returns
-    -------
-    jax.Array
-        ECI components, the broadcast shape.
-    """
-    return _rotate_z(vec_ecef, theta_rad, axis)
-
-
-def eci_to_ecef(vec_eci, theta_rad, axis=-1):
-    """ECI components to ECEF components, ``v_ecef = R3(θ) v_eci`` (inverse of :func:`ecef_to_eci`).
-
-    Parameters and returns as :func:`ecef_to_eci`.
-    """
-    return _rotate_z(vec_eci, -jnp.asarray(theta_rad), axis)
-
-
-def earth_fixed_point_eci(r_ecef_m, t_s, gmst0_rad, axis=-1):
-    """Inertial position, velocity and acceleration of a point fixed to the rotating Earth.
-
-    Parameters
-    ----------
-    r_ecef_m : array_like, shape (..., 3) (component ``axis``)
-        The point, ECEF, m.
-    t_s : array_like
-        Time since the epoch, s (broadcasts like ``theta_rad`` of :func:`ecef_to_eci`).
-    gmst0_rad : float
-        GMST at the epoch, rad.
-    axis : int
-        Component axis.
-
-    Returns
-    -------
-    r_eci_m : jax.Array
-        ``R3(−θ) r_ecef``, m.
-    v_eci_m_s : jax.Array
-        ``ω × r_eci``, m/s, with ``ω = ω_E ẑ``.
-    a_eci_m_s2 : jax.Array
-        ``ω × (ω × r_eci) = −ω_E² [x, y, 0]``, m/s² (centripetal; ω is constant).
-    """
-    r_eci = ecef_to_eci(r_ecef_m, rotation_angle_rad(t_s, gmst0_rad), axis)
-    x, y, _ = _split(r_eci, axis)
-    zero = jnp.zeros_like(x)
-    w = OMEGA_EARTH_RAD_S
-    return r_eci, _join([-w * y, w * x, zero], axis), _join([-w * w * x, -w * w * y, zero], axis)
 
 
 def elevation_rad(r_sc_eci_m, r_target_eci_m, up_eci, axis=-1):

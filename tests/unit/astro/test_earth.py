@@ -14,18 +14,22 @@ from coopsat.astro.earth import (
     WGS84_A_M,
     WGS84_B_M,
     WGS84_F,
-    earth_fixed_point_eci,
-    ecef_to_eci,
     ecef_to_geodetic,
-    eci_to_ecef,
     elevation_rad,
     geocentric_paper_eci,
     geodetic_to_ecef,
     gmst_rad,
     julian_date_utc,
-    rotation_angle_rad,
     up_ecef,
 )
+from coopsat.astro.earth_orientation import earth_fixed_point_gcrf, z_rotation
+
+
+def ecef_to_eci(vec, theta):
+    """A bare z turn, ``R3(−θ) v`` (NumPy, written out here), for placing points on the papers' Earth."""
+    c, s = np.cos(theta), np.sin(theta)
+    x, y, z = np.moveaxis(np.asarray(vec, dtype=float), -1, 0)
+    return np.stack([c * x - s * y, s * x + c * y, z], axis=-1)
 
 # 1990–2030, none on a day that ends in a leap second (see test_julian_date_on_leap_second_day).
 DATES = [
@@ -172,53 +176,32 @@ def test_up_ecef_is_the_ellipsoid_normal():
 # ----------------------------------------------------------------------------- ECEF and ECI
 
 
-def test_ecef_eci_rotation_hand_values_and_round_trip():
-    # θ = 90°: the Greenwich meridian (ECEF x) points along ECI y.
-    np.testing.assert_allclose(ecef_to_eci(np.array([1.0, 0.0, 0.0]), np.pi / 2), [0.0, 1.0, 0.0], atol=1e-16)
-    np.testing.assert_allclose(eci_to_ecef(np.array([0.0, 1.0, 0.0]), np.pi / 2), [1.0, 0.0, 0.0], atol=1e-16)
-    rng = np.random.default_rng(7)
-    vec = rng.normal(size=(50, 3)) * 7e6
-    theta = rng.uniform(-10.0, 10.0, size=50)
-    eci = np.asarray(ecef_to_eci(vec, theta))
-    c, s = np.cos(theta), np.sin(theta)
-    r3_minus_theta = np.array([[c, -s, 0 * c], [s, c, 0 * c], [0 * c, 0 * c, 1 + 0 * c]]).transpose(2, 0, 1)
-    np.testing.assert_allclose(eci, np.einsum("nij,nj->ni", r3_minus_theta, vec), rtol=0, atol=1e-8)
-    np.testing.assert_allclose(eci_to_ecef(eci, theta), vec, rtol=0, atol=1e-8)
-    # Component-major layout (3, n) with θ (n,) gives the same numbers.
-    np.testing.assert_allclose(np.asarray(ecef_to_eci(vec.T, theta, axis=0)).T, eci, rtol=0, atol=0)
-    # One θ broadcasts over many vectors.
-    np.testing.assert_allclose(ecef_to_eci(vec, 0.3), [ecef_to_eci(v, 0.3) for v in vec], rtol=0, atol=1e-8)
-
-
-def test_rotation_angle():
-    # One stellar day (86164.0989 s, rotation relative to inertial axes) is one turn; the
-    # sidereal day of the IAU-82 GMST polynomial (86164.0905 s) falls short by the precession of
-    # the equinox, 6e-7 rad a day (see OMEGA_EARTH_RAD_S).
-    assert float(rotation_angle_rad(86164.0989, 1.0)) == pytest.approx(1.0 + 2.0 * np.pi, abs=1e-9)
-    assert float(rotation_angle_rad(86164.0905, 1.0)) == pytest.approx(1.0 + 2.0 * np.pi - 6.1e-7, abs=1e-8)
-    np.testing.assert_allclose(rotation_angle_rad(np.array([0.0, 10.0]), 2.0), [2.0, 2.0 + 10.0 * OMEGA_EARTH_RAD_S])
-
-
 TARGET_ECEF_M = np.asarray(geodetic_to_ecef(np.radians(40.0), np.radians(-105.0), 1600.0))
 
 
+TURN = z_rotation(1.234, 86400.0)  # the papers' Earth, θ = 1.234 + ω_E t
+
+
+def earth_fixed_point_eci(r_ecef_m, t_s, table=TURN, axis=-1):
+    return earth_fixed_point_gcrf(r_ecef_m, t_s, table, axis)
+
+
 def test_earth_fixed_point_velocity_and_acceleration_are_derivatives_of_position():
-    gmst0 = 1.234
     times = np.array([0.0, 137.0, 5400.0, 86400.0])
 
     def position(t):
-        return earth_fixed_point_eci(TARGET_ECEF_M, t, gmst0)[0]
+        return earth_fixed_point_eci(TARGET_ECEF_M, t)[0]
 
     for t in times:
-        r, v, a = (np.asarray(x) for x in earth_fixed_point_eci(TARGET_ECEF_M, t, gmst0))
+        r, v, a = (np.asarray(x) for x in earth_fixed_point_eci(TARGET_ECEF_M, t))
         # Automatic differentiation of the position formula.
         np.testing.assert_allclose(jax.jacfwd(position)(t), v, rtol=0, atol=1e-12)
         np.testing.assert_allclose(jax.jacfwd(jax.jacfwd(position))(t), a, rtol=0, atol=1e-15)
         # Central differences (independent of JAX), step 1 s: truncation r ω³ h²/6 ≈ 4e-7 m/s
         # for v and r ω⁴ h²/6 ≈ 3e-11 m/s² for a.
         h = 1.0
-        rp, vp, _ = (np.asarray(x) for x in earth_fixed_point_eci(TARGET_ECEF_M, t + h, gmst0))
-        rm, vm, _ = (np.asarray(x) for x in earth_fixed_point_eci(TARGET_ECEF_M, t - h, gmst0))
+        rp, vp, _ = (np.asarray(x) for x in earth_fixed_point_eci(TARGET_ECEF_M, t + h))
+        rm, vm, _ = (np.asarray(x) for x in earth_fixed_point_eci(TARGET_ECEF_M, t - h))
         np.testing.assert_allclose((rp - rm) / (2 * h), v, rtol=0, atol=1e-6)
         np.testing.assert_allclose((vp - vm) / (2 * h), a, rtol=0, atol=1e-10)
         # Speed of a point at 40° latitude: ω × distance from the axis (≈ 356 m/s).
@@ -228,8 +211,9 @@ def test_earth_fixed_point_velocity_and_acceleration_are_derivatives_of_position
 def test_earth_fixed_point_component_major_and_jit():
     points = np.stack([TARGET_ECEF_M, -2.0 * TARGET_ECEF_M, np.array([0.0, 0.0, WGS84_B_M])])
     t = np.array([0.0, 100.0, 1e4])
-    last = [np.asarray(x) for x in earth_fixed_point_eci(points, t, 0.5)]
-    first = jax.jit(lambda p, tt: earth_fixed_point_eci(p, tt, 0.5, axis=0))(points.T, t)
+    turn = z_rotation(0.5, 1e4)
+    last = [np.asarray(x) for x in earth_fixed_point_eci(points, t, turn)]
+    first = jax.jit(lambda p, tt: earth_fixed_point_eci(p, tt, turn, axis=0))(points.T, t)
     for x, y in zip(last, first):
         np.testing.assert_allclose(np.asarray(y).T, x, rtol=0, atol=1e-9)
     # The pole does not move.

@@ -70,7 +70,7 @@ CASES = [
     # drag: the mass
     ("mass-zero", scenario("drag", DRAG, mass="mass_kg = 0.0"), ["spacecraft[0].mass_kg", "greater than 0"]),
     ("mass-negative", scenario("drag", DRAG, mass="mass_kg = -5.0"), ["spacecraft[0].mass_kg", "greater than 0"]),
-    ("mass-missing", scenario("drag", DRAG, mass=""), ["mass_kg", "sat1"]),
+    ("mass-missing", scenario("drag", DRAG, mass=""), ["drag (disturbances) is a force", "mass_kg", "sat1"]),
     # drag: the atmosphere
     ("unknown-density-model", scenario("drag", 'area_m2 = 1.0\ndensity = "jacchia"'), ["density", "'jacchia'", "harris-priester"]),
     ("f107-below-the-tables", scenario("drag", HP + "\nf107 = 60.0"), ["drag", "f107 = 60", "65 <= f107 <= 275"]),

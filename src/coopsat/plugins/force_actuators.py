@@ -93,7 +93,7 @@ def require_translation(ctx, place="actuators", who="a force actuator"):
         raise DesignError(f"{place}: {who} needs an [orbit] table (the translational truth model)")
     missing = [sc.name for sc in ctx.scenario.spacecraft if sc.mass_kg is None]
     if missing:
-        raise DesignError(f"spacecraft: a force acts, so every spacecraft needs mass_kg; missing for {missing}")
+        raise DesignError(f"spacecraft: {who} ({place}) is a force, so every spacecraft needs mass_kg; missing for {missing}")
 
 
 def check_translation(table, ctx):

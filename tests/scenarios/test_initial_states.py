@@ -182,3 +182,10 @@ def test_bad_orbit_time_fields_are_one_line(orbit, words):
     with pytest.raises(ScenarioError) as err:
         prepare(coopsat.Scenario.from_dict(doc))
     assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_an_unquoted_toml_date_time_is_the_same_epoch():
+    text = 'name = "d"\n[sim]\nt_final_s = 10.0\ndt_s = 10.0\n[orbit]\nepoch_tt = {}\n[[spacecraft]]\ninertia_kgm2 = [1.0, 1.0, 1.0]\n[spacecraft.elements]\na_m = 7e6\n'
+    quoted = load_scenario(coopsat.Scenario.from_toml(text.format('"2024-03-20T03:08:00"')))
+    bare = load_scenario(coopsat.Scenario.from_toml(text.format("2024-03-20T03:08:00")))
+    assert bare.orbit.epoch == quoted.orbit.epoch == ("2024-03-20T03:08:00", "tt")

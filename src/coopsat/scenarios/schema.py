@@ -243,6 +243,15 @@ class Orbit(Table):
         "papers' turn about z by GMST (gmst82, SPEC §0).",
     )
 
+    @field_validator("epoch_utc", "epoch_tt", "epoch_tai", mode="before")
+    @classmethod
+    def _toml_date(cls, v):
+        """A TOML date-time written without quotes (``epoch_utc = 2018-07-12T03:00:00``) is the
+        same instant as the quoted string; one with an offset is left for ``_iso_date``."""
+        from datetime import datetime
+
+        return v.isoformat() if isinstance(v, datetime) else v
+
     @field_validator("epoch_utc", "epoch_tt", "epoch_tai")
     @classmethod
     def _iso_date(cls, v):

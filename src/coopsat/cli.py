@@ -277,12 +277,9 @@ def _cmd_campaign_run(args):
 def _cmd_campaign_replay(args):
     from coopsat.workflows.campaign.runner import replay
 
-    stored, replayed, identical = replay(args.dir, args.run_id)
-    print(f"run {args.run_id}: {'identical to the stored result, bit for bit' if identical else 'DIFFERS from the stored result'}")
-    for k in stored:
-        if k not in ("run_id", "params") and stored[k] != replayed.get(k):
-            print(f"  {k}: stored {stored[k]!r}, replayed {replayed.get(k)!r}")
-    return 0 if identical else 1
+    result = replay(args.dir, args.run_id)
+    print("\n".join(result.report_lines))
+    return 0 if result.identical else 1
 
 
 def _cmd_campaign_report(args):

@@ -288,8 +288,10 @@ def test_replay_of_a_run_is_identical(reference, capsys):
     status, out, err = run_main(capsys, ["campaign", "replay", reference, 5])
     assert status == 0, out + err
     assert out.startswith("run 5: identical to the stored result, bit for bit")
-    stored, replayed, identical = replay(reference, 3)
-    assert identical is True
+    assert out.splitlines()[-1].startswith("provenance: replayed as the batch ran (")  # one line (issue 43)
+    result = replay(reference, 3)
+    stored, replayed = result.stored, result.replayed
+    assert result.identical is True and result.provenance_differences == ()
     assert stored["status"] == replayed["status"] == "ok"
     numbers = [k for k, v in stored.items() if isinstance(v, float)]
     assert len(numbers) >= 10
@@ -327,9 +329,10 @@ def test_replay_of_a_run_from_a_batch_of_four_is_identical(tmp_path, capsys):
     assert done.returncode == 0, done.stderr
     differ = []
     for k in range(4):
-        stored, replayed, identical = replay(tmp_path / "c", k)
+        result = replay(tmp_path / "c", k)
+        stored, replayed = result.stored, result.replayed
         assert stored["status"] == "ok"
-        if not identical:
+        if not result.identical:
             differ.append((k, {n: (stored[n], replayed[n]) for n in stored if stored[n] != replayed[n]}))
     assert not differ, differ
 
@@ -446,13 +449,13 @@ def test_finished_batches_are_released_on_the_worker_as_they_are_written(work, t
     def worker_results():
         return sum(default_client().run(lambda dask_worker: sum(str(k).startswith("batch-") for k in dask_worker.data)).values())
 
-    def counting_write(out_dir, b, rows, series=None):
+    def counting_write(out_dir, b, rows, series=None, provenance=None):
         unwritten = BATCHES - len(held)
         deadline = time.monotonic() + 5.0
         while (n := worker_results()) > unwritten and time.monotonic() < deadline:
             time.sleep(0.05)
         held.append(n)
-        return real_write(out_dir, b, rows, series)
+        return real_write(out_dir, b, rows, series, provenance)
 
     monkeypatch.setattr(runner, "write_batch", counting_write)
     status, _, err = run_main(capsys, ["campaign", "run", work / "camp.toml", "--out", tmp_path / "c", "--workers", "1", "-q"])

@@ -11,7 +11,9 @@ poisoned run fails alone. The driver writes each finished batch as
 or lost, even after SIGKILL. SIGINT or SIGTERM stops the campaign when the next batch finishes
 (it is written first; status 130 or 143, the last line saying how many batches the folder
 holds); the local workers ignore both, so that a Ctrl-C, which reaches the whole process group,
-stops them only through the driver.
+stops them only through the driver. Each batch's Parquet file also records what decided its
+bits on the worker that ran it (:mod:`~coopsat.workflows.campaign.provenance`), which
+:func:`replay` reproduces or names.
 """
 
 import contextlib
@@ -21,11 +23,13 @@ import os
 import re
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from coopsat.core.progress import progress_bar
 from coopsat.workflows import interrupt
+from coopsat.workflows.campaign.provenance import batch_provenance, compare, read_provenance, summary_line, to_metadata
 from coopsat.workflows.campaign.spec import (
     Campaign,
     CampaignError,
@@ -89,11 +93,20 @@ def run_batch_rows(campaign_path, run_ids):
     return run_batch(make_job(campaign_path), run_ids)[0]
 
 
-def run_batch(job, run_ids):
+def run_batch(job, run_ids, native=None):
     """Run one batch: one row (dict) per run — ``run_id``, ``status`` ("ok" or "failed"),
-    ``reason``, ``seed``, ``params`` (JSON of the applied values), then every metric — and the
+    ``reason``, ``seed``, ``params`` (JSON of the applied values), then every metric — the
     campaign's ``timeseries`` of the ok runs (an xarray Dataset with a ``run`` dimension, or
-    None). Executed on a Dask worker; never raises for a failing run."""
+    None), and the batch's provenance (:func:`~coopsat.workflows.campaign.provenance.
+    batch_provenance`: what decides its bits, taken in this process). Executed on a Dask
+    worker; never raises for a failing run. ``native``: as :func:`coopsat.sim.engine.simulate`
+    (a replay takes the path the batch took).
+
+    Raises
+    ------
+    NativeUnavailableError
+        ``native`` is True and the kernels cannot run in this process.
+    """
     import tempfile
 
     from coopsat.workflows.pipeline import analyse, prepare
@@ -119,12 +132,15 @@ def run_batch(job, run_ids):
             rows[k] = row
 
     series = {}
+    # Taken here, on the worker that runs the batch, before it runs: it decides the native
+    # kernels' path for the whole batch (the probe, if any, runs now).
+    provenance = batch_provenance(builds, run_ids, native)
 
     def finish(ids, blds):
         # One device whatever the machine, so that a run's stored result (and its replay) does
         # not depend on how many cores the worker had; groups padded to recurring sizes, so
         # that a worker compiles each structure a few times, not once per batch.
-        datasets, _, _ = simulate_runs(blds, every_core=False, bucket=campaign.batch_size)
+        datasets, _, _ = simulate_runs(blds, every_core=False, bucket=campaign.batch_size, native=native)
         for k, b, ds in zip(ids, blds, datasets):
             metrics, _ = analyse(b, ds, compare=False)
             rows[k].update({name: _scalar(v) for name, v in metrics.items()})
@@ -152,7 +168,7 @@ def run_batch(job, run_ids):
         # specified fixed-width string type.
         labels = [c for c in kept.coords if kept[c].dtype.kind == "U"]
         kept = kept.drop_vars(labels).assign_attrs({f"{c}_labels": [str(v) for v in kept[c].values] for c in labels})
-    return [rows[k] for k in run_ids], kept
+    return [rows[k] for k in run_ids], kept, provenance
 
 
 def _scalar(v):
@@ -163,10 +179,12 @@ def series_file(out_dir, b):
     return Path(out_dir) / "timeseries" / f"batch_{b:06d}.zarr"
 
 
-def write_batch(out_dir, b, rows, series=None):
+def write_batch(out_dir, b, rows, series=None, provenance=None):
     """Write one batch: its time series (Zarr, when kept) first, then its rows as Parquet,
-    each atomically (written beside, renamed into place). The Parquet file is the batch's
-    completion mark: when it exists, so does everything else of the batch.
+    each atomically (written beside, renamed into place), its ``provenance`` (when given) in
+    the Parquet file's key-value metadata (:mod:`~coopsat.workflows.campaign.provenance`). The
+    Parquet file is the batch's completion mark: when it exists, so does everything else of
+    the batch.
 
     Raises
     ------
@@ -181,6 +199,8 @@ def write_batch(out_dir, b, rows, series=None):
 
     names = list(dict.fromkeys(k for r in rows for k in r))
     table = pa.table({k: [r.get(k) for r in rows] for k in names})
+    if provenance is not None:
+        table = table.replace_schema_metadata(to_metadata(provenance))
     path = batch_file(out_dir, b)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     tmp_dir = None
@@ -345,9 +365,9 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
                 # Dropping our reference lets the worker free the batch's result once written:
                 # a campaign larger than memory streams to disk instead of piling up.
                 b = futures.pop(future)
-                rows, series = future.result()
+                rows, series, provenance = future.result()
                 with interrupt.holding():  # a finished batch is written whole, even after a signal
-                    write_batch(out_dir, b, rows, series)
+                    write_batch(out_dir, b, rows, series, provenance)
                     on_disk += 1
                     written += 1
                     interrupt.wrote(out_dir, _resume_note(out_dir, on_disk, len(batches)))
@@ -422,16 +442,57 @@ def _peak_rss_mb():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+class Replay(NamedTuple):
+    """A stored run replayed (:func:`replay`)."""
+
+    stored: dict
+    """The run's stored row."""
+    replayed: dict
+    """The same row computed again."""
+    identical: bool
+    """Every number of the two rows equal bit for bit."""
+    stored_provenance: dict | None
+    """What decided the batch's bits where it ran (None: a batch written before it was recorded)."""
+    replayed_provenance: dict
+    """The same in this process, as the replay ran."""
+    provenance_differences: tuple[str, ...]
+    """The fields deciding bits that differ, each ``field (stored …, here …)``; empty when none does."""
+    tolerance: str | None
+    """The agreement that then applies; None when bit for bit is expected."""
+
+    @property
+    def provenance_line(self):
+        """One line on the provenance (:func:`~coopsat.workflows.campaign.provenance.summary_line`)."""
+        return summary_line(self.stored_provenance, self.provenance_differences, self.tolerance)
+
+    @property
+    def report_lines(self):
+        """What ``coopsat campaign replay`` prints: the verdict, each differing figure, the
+        provenance line."""
+        k = self.stored["run_id"]
+        lines = [f"run {k}: {'identical to the stored result, bit for bit' if self.identical else 'DIFFERS from the stored result'}"]
+        lines += [f"  {name}: stored {value!r}, replayed {self.replayed.get(name)!r}" for name, value in self.stored.items()
+                  if name not in ("run_id", "params") and value != self.replayed.get(name)]
+        return [*lines, self.provenance_line]
+
+
 def replay(out_dir, run_id):
     """Run one stored run again — with the rest of its batch, as it first ran — from the job
     stored in the folder (not the files, which may have changed), and compare its metrics with
     the stored ones.
 
+    The batch's stored provenance (:mod:`~coopsat.workflows.campaign.provenance`) decides how:
+    its runs in their order, and the native kernels on or off as where it ran (a Dask worker
+    may have chosen otherwise than this process). What cannot be reproduced here (another jax,
+    another CPU family) is named in :attr:`Replay.provenance_differences`, with the agreement
+    that then applies.
+
     Returns
     -------
-    (stored, replayed, identical)
-        Dicts of the metrics; ``identical``: every number equal bit for bit.
+    Replay
     """
+    from coopsat.sim.native.capability import NativeUnavailableError
+
     out_dir = Path(out_dir)
     marker = out_dir / MARKER
     if not marker.is_file():
@@ -441,15 +502,24 @@ def replay(out_dir, run_id):
     if table.num_rows == 0 or run_id not in set(table.column("run_id").to_pylist()):
         raise CampaignError(f"run {run_id}: not among the finished runs of {out_dir}")
     stored = next(r for r in table.to_pylist() if r["run_id"] == run_id)
+    c = Campaign.model_validate(spec["campaign"])
+    b = run_id // c.batch_size
+    before = read_provenance(batch_file(out_dir, b))
     # The whole batch the run was stored from, as it ran: XLA's program for a batch of one can
     # differ from the batch's in the last bit.
-    c = Campaign.model_validate(spec["campaign"])
-    ids = batch_ids(c.runs, c.batch_size)[run_id // c.batch_size]
-    rows = run_batch({k: spec[k] for k in ("campaign", "scenario_toml", "fields")}, ids)[0]
+    ids = before["run_ids"] if before else batch_ids(c.runs, c.batch_size)[b]
+    job = {k: spec[k] for k in ("campaign", "scenario_toml", "fields")}
+    try:
+        rows, _, here = run_batch(job, ids, native=before["native"] if before else None)
+    except NativeUnavailableError:
+        # The batch ran with the kernels and they cannot run here: XLA's path, its difference
+        # reported with the agreement that applies.
+        rows, _, here = run_batch(job, ids, native=False)
     replayed = rows[ids.index(run_id)]
     keys = [k for k in stored if k not in ("run_id",)]
     identical = all(_same(stored.get(k), replayed.get(k)) for k in keys)
-    return stored, replayed, identical
+    differences, tolerance = compare(before, here) if before else ((), None)
+    return Replay(stored, replayed, identical, before, here, differences, tolerance)
 
 
 def _same(a, b):

@@ -230,6 +230,12 @@ def _checked(worth_probing=True):
         return _verdict[0]
 
 
+def known_verdict():
+    """The process's verdict when it is known without running the probe (a cached or kept one,
+    or a platform or version problem), else None: for reporting which path a run took."""
+    return _checked(worth_probing=False)
+
+
 def use_native(native=None, sc_steps=None):
     """Whether this process runs the native kernels for a run that asks ``native`` (True,
     False, or None: :data:`ENV`). ``sc_steps``: the run's size (spacecraft × integration

@@ -106,8 +106,7 @@ def _native_off_reason(native):
         return "native=False (the path the replayed batch took)"
     if capability.requested(native) == "0":
         return f"{capability.ENV}=0"
-    # The verdict is the capability module's own; _checked(False) reads it without probing.
-    verdict = capability._checked(worth_probing=False)
+    verdict = capability.known_verdict()  # the capability module's own, read without probing
     if verdict is None:
         return (f"no verdict in this process (none kept beside a persistent JAX cache) and its runs are below the "
                 f"probe's {capability.PROBE_WORTH_SC_STEPS:.0e} spacecraft-steps")

@@ -507,7 +507,7 @@ def _add_campaign(sub):
     c_run.add_argument("--quiet", "-q", action="store_true",
                        help="no progress (a bar on a terminal, a line per tenth of the runs otherwise)")
     c_run.set_defaults(func=_cmd_campaign_run)
-    c_rep = camp_sub.add_parser("replay", help="run one stored run again alone and compare it bit for bit")
+    c_rep = camp_sub.add_parser("replay", help="run one stored run again (in its batch, on the path it took) and compare it bit for bit")
     c_rep.add_argument("dir", help="campaign folder")
     c_rep.add_argument("run_id", type=int)
     c_rep.set_defaults(func=_cmd_campaign_replay)

@@ -25,3 +25,32 @@ def test_bench_runs_small_and_quotes_the_ceiling():
     orbit = [line.split() for line in proc.stdout.splitlines() if line.startswith("orbit ")]
     assert [r[1] for r in orbit] == ["J2", "all"]
     assert float(orbit[1][-4].rstrip("×")) > 0.0
+
+
+def test_a_row_whose_state_does_not_fit_is_skipped_in_one_line(monkeypatch):
+    """The delayed row holds 201 periods of every message: at a size whose state passes the share of
+    memory it is skipped with its size and why, instead of running out of memory."""
+    import os
+
+    from coopsat.workflows import bench
+
+    real = os.sysconf
+    monkeypatch.setattr(os, "sysconf", lambda name: 4096 if name == "SC_PHYS_PAGES" else real(name))  # a 16 MB machine
+    assert bench.too_big(1000, "consensus-sync") is None  # 0.2 MB of state
+    line = bench.too_big(1000, "consensus-sync", delayed=True)  # 11.5 MB: more than a quarter of 16 MB
+    assert line.startswith("skipped: its loop state is 0.0 GB (the delay line holds 201 periods") and "\n" not in line
+
+
+def test_a_million_spacecraft_ring_builds_from_an_edge_list():
+    """No n × n matrix: the ring of 1e6 spacecraft is 2e6 links (its dense adjacency would be 8 TB)."""
+    import resource
+
+    from coopsat.core import runtime
+    from coopsat.sim.synthetic import bench_system
+
+    runtime.enable()
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    system = bench_system(1_000_000, "consensus-sync", record_ticks=1)
+    grown_gb = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024**2
+    assert system.network.src.shape == (2, 1_000_000)  # the padded in-neighbour table of a ring
+    assert grown_gb < 2.0

@@ -162,11 +162,35 @@ def laplacian(a):
 
 
 def links_from_adjacency(a, layout="auto"):
-    """Index arrays of ``A`` for the compiled loop.
+    """Index arrays of ``A`` for the compiled loop (:func:`links_from_edges` of its nonzeros).
 
     Parameters
     ----------
     a : array_like, shape (n, n)
+    layout : {"auto", "edges", "padded"}
+        As :func:`links_from_edges`.
+
+    Returns
+    -------
+    Links
+    """
+    a = np.asarray(a, dtype=float)
+    dst, src = np.nonzero(a)  # row-major: sorted by dst (= i), then src
+    return links_from_edges(src, dst, a[dst, src], a.shape[0], layout)
+
+
+def links_from_edges(src, dst, weight, n, layout="auto"):
+    """Index arrays of a graph given as an edge list, for the compiled loop: memory linear in
+    the edges, no n × n matrix (a formation of a million spacecraft).
+
+    Parameters
+    ----------
+    src, dst : array_like of int, shape (E,)
+        Transmitter j and receiver i of each link (i hears j), each pair once.
+    weight : array_like, shape (E,)
+        ``a_ij`` of each link, > 0.
+    n : int
+        Number of spacecraft.
     layout : {"auto", "edges", "padded"}
         "auto" takes the padded table when it holds at most twice the slots of the edge list
         (degrees alike), else the edge list.
@@ -175,21 +199,36 @@ def links_from_adjacency(a, layout="auto"):
     -------
     Links
     """
-    a = np.asarray(a, dtype=float)
-    n = a.shape[0]
-    dst, src = np.nonzero(a)  # row-major: sorted by dst (= i), then src
+    src, dst, weight = np.asarray(src, dtype=np.int64), np.asarray(dst, dtype=np.int64), np.asarray(weight, dtype=float)
+    order = np.lexsort((src, dst))  # by receiver, then transmitter: the order np.nonzero(A) gives
+    src, dst, weight = src[order], dst[order], weight[order]
     in_degree = np.bincount(dst, minlength=n)
     d = max(1, int(in_degree.max(initial=0)))
     if layout == "auto":
         layout = "padded" if n * d <= 2 * max(len(dst), n) else "edges"
     if layout == "edges":
-        return Links(src=src.astype(np.int32), dst=dst.astype(np.int32), weight=a[dst, src], n=n)
+        return Links(src=src.astype(np.int32), dst=dst.astype(np.int32), weight=weight, n=n)
     slot = np.arange(len(dst)) - np.searchsorted(dst, dst)  # position of each edge among its receiver's
     table_src = np.tile(np.arange(n, dtype=np.int32), (d, 1))
     table_w = np.zeros((d, n))
     table_src[slot, dst] = src
-    table_w[slot, dst] = a[dst, src]
+    table_w[slot, dst] = weight
     return Links(src=table_src, dst=np.tile(np.arange(n, dtype=np.int32), (d, 1)), weight=table_w, n=n)
+
+
+def ring_edges(n, directed=False):
+    """The ring of :func:`ring_adjacency` as an edge list (src (E,), dst (E,), weight (E,)),
+    unit weights: memory linear in n."""
+    _check_n(n)
+    if n == 1:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    idx = np.arange(n)
+    src, dst = [(idx - 1) % n], [idx]
+    if not directed and n > 2:  # with two spacecraft the ring's two links are the same one
+        src.append((idx + 1) % n)
+        dst.append(idx)
+    src, dst = np.concatenate(src), np.concatenate(dst)
+    return src, dst, np.ones(src.size)
 
 
 def links_for_schedule(adjacencies, layout="auto"):

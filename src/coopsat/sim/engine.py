@@ -33,7 +33,7 @@ from coopsat.sim.program_cache import ProgramCache
 from coopsat.sim.programs import _final_sample, _initial_carry, _run_chunk, _run_chunk_batched
 from coopsat.sim.tick import _quantities
 
-__all__ = ["MAX_CHUNK", "NonFiniteStateError", "RunOutput", "bucket_runs", "output_shapes", "output_specs",
+__all__ = ["MAX_CHUNK", "NonFiniteStateError", "RunOutput", "bucket_runs", "output_shapes", "output_specs", "state_bytes",
            "run_samples", "simulate", "with_native_decided"]
 
 
@@ -69,6 +69,13 @@ def output_shapes(system):
     shapes = jax.eval_shape(lambda s: _final_sample(s, _initial_carry(s)), system)
     specs = output_specs(system)
     return {k: (v.shape[-1], *v.shape[:-1]) if specs[k].per_spacecraft else v.shape for k, v in shapes.items()}
+
+
+def state_bytes(system):
+    """Bytes of the loop's state (plant, parts, the network's message history) of one run, from
+    its shapes alone (nothing is allocated): what a run holds besides its record."""
+    carry = jax.eval_shape(_initial_carry, system)
+    return sum(math.prod(leaf.shape) * leaf.dtype.itemsize for leaf in jax.tree_util.tree_leaves(carry))
 
 
 @dataclass

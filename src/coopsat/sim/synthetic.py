@@ -44,7 +44,7 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=Fa
     from coopsat.control.consensus import ConsensusLaw
     from coopsat.control.free import NoControl
     from coopsat.dynamics.plant import PlantParams, PlantState
-    from coopsat.network.topology import links_from_adjacency, ring_adjacency
+    from coopsat.network.topology import links_from_edges, ring_edges
     from coopsat.sim.system import Structure, System, as_arrays
 
     rng = np.random.default_rng(seed)
@@ -52,7 +52,9 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=Fa
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     principal = rng.uniform(0.5, 1.5, size=(n, 3))  # body axes = principal axes (diagonal path)
     zeros = np.zeros((n, 3))
-    links = links_from_adjacency(ring_adjacency(n) if controller != "none" and n > 1 else np.zeros((n, n)))
+    # An edge list from the start: a ring of a million spacecraft is 2e6 links, not 1e12 entries.
+    ring = ring_edges(n) if controller != "none" else ring_edges(1)
+    links = links_from_edges(*ring, n)
     structure = Structure(
         n_spacecraft=n, gravity="none", attitude="rigid-body", ticks_per_period=1, periods_per_record=record_ticks,
         substeps=1, native=native,

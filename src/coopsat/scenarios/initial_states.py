@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.astro.constants import MU_EARTH_M3_S2
+from coopsat.astro.constants import MU_EARTH_M3_S2, central_body_name
 
 
 def _cartesian(sc, orbit, clock):
@@ -104,8 +104,6 @@ def _oem(table, orbit, clock):
         raise ValueError(f"file: REF_FRAME = {frame} in {table.file} is not an inertial frame read here ({', '.join(OEM_FRAMES)})")
     if system not in OEM_TIME_SYSTEMS:
         raise ValueError(f"file: TIME_SYSTEM = {system} in {table.file} is not one read here ({', '.join(OEM_TIME_SYSTEMS)})")
-    from coopsat.astro.constants import central_body_name
-
     if centre != central_body_name(orbit.mu_m3_s2):
         raise ValueError(f"file: CENTER_NAME = {centre} in {table.file} is not the run's central body")
     exact = next((s for s in segment.states if abs((s.epoch - when).to_value("s")) < 1e-6), None)
@@ -138,13 +136,22 @@ RELATIVE = {"relative": _lvlh, "roe": _roe}
 """A state given about another spacecraft, by field."""
 
 
+def _by_field(field, fn, *args):
+    """``fn(*args)``; its one-line ValueError is given the field's name in front."""
+    try:
+        return fn(*args)
+    except ValueError as err:
+        raise ValueError(f"{field}: {err}") from None
+
+
 def absolute_state(sc, orbit, clock):
-    """(field, r, v) of a spacecraft whose own state is given (:data:`ABSOLUTE`)."""
+    """(r, v) of a spacecraft whose own state is given (:data:`ABSOLUTE`); a ValueError names
+    the field first (``"tle: …"``)."""
     field = next(f for f in ABSOLUTE if getattr(sc, f) is not None)
-    return field, *ABSOLUTE[field](sc if field == "r_eci_m" else getattr(sc, field), orbit, clock)
+    return _by_field(field, ABSOLUTE[field], sc if field == "r_eci_m" else getattr(sc, field), orbit, clock)
 
 
 def relative_state(sc, orbit, clock, r_ref, v_ref):
-    """(field, r, v) of a spacecraft given about another (:data:`RELATIVE`)."""
+    """(r, v) of a spacecraft given about another (:data:`RELATIVE`); errors as :func:`absolute_state`."""
     field = next(f for f in RELATIVE if getattr(sc, f) is not None)
-    return field, *RELATIVE[field](getattr(sc, field), orbit, clock, r_ref, v_ref)
+    return _by_field(field, RELATIVE[field], getattr(sc, field), orbit, clock, r_ref, v_ref)

@@ -12,7 +12,7 @@ import xarray as xr
 from coopsat.workflows.pipeline import run_scenario
 from coopsat.scenarios.load import bundled_names, load_scenario
 
-SHORT = {"orbit-two-body": 100.0, "rigid-body-free": 2.0, "leo-iss-tle-roe": 120.0}  # two 60 s records
+SHORT = {"orbit-two-body": 100.0, "rigid-body-free": 2.0, "leo-iss-tle-roe": 120.0, "leo-swarm-100": 40.0}  # two 60 s records
 SHORT.update({name: 500.0 for name in bundled_names() if name.startswith("deepspace-")})  # 50 s records
 SHORT.update({name: 200.0 for name in bundled_names() if name.startswith("cartwheel-")})  # 10 s records, PSO every 100 s
 

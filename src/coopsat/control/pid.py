@@ -159,6 +159,8 @@ class LvlhPd:
         N/m and N·s/m.
     rho_target_lvlh : (3, n)
         Offset to hold, m, LVLH (the chief's column is zero).
+    start_s : scalar
+        The law commands nothing before this time, s (free drift until then).
 
     Notes
     -----
@@ -170,6 +172,7 @@ class LvlhPd:
     k_p: jnp.ndarray
     k_d: jnp.ndarray
     rho_target_lvlh: jnp.ndarray
+    start_s: jnp.ndarray
 
     commands = ("force_lvlh",)
     # No per-spacecraft form: software in the loop says why in its refusal.
@@ -190,8 +193,15 @@ class LvlhPd:
         c = slice(CHIEF, CHIEF + 1)
         rho, rho_dot = eci_to_lvlh(r[:, c], v[:, c], r, v, 0)
         f = lvlh_pd_force(rho, rho_dot, self.rho_target_lvlh, self.k_p, self.k_d)
-        f = jnp.where(jnp.arange(f.shape[-1]) == CHIEF, 0.0, f)
+        f = jnp.where((jnp.arange(f.shape[-1]) == CHIEF) | (t < self.start_s), 0.0, f)
         return {"force_lvlh": f}, state, {"force_command": f, "rho_lvlh": rho, "rho_dot_lvlh": rho_dot}
+
+    def targets_lvlh(self):
+        """Where each spacecraft should be relative to the chief, the chief's LVLH frame, m,
+        (n, 3) NumPy (design; for the truth errors of :mod:`coopsat.analysis.papers.station_keeping`)."""
+        import numpy as np
+
+        return np.asarray(self.rho_target_lvlh).T
 
     def output_specs(self):
         return {

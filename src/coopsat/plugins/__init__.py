@@ -64,6 +64,7 @@ PLUGIN_MODULES = (
     "coopsat.plugins.force_actuators",
     "coopsat.plugins.wheel_actuators",
     "coopsat.plugins.pid",
+    "coopsat.plugins.lvlh_consensus",
     "coopsat.plugins.cartwheel",
     "coopsat.plugins.leader_follower",
     "coopsat.plugins.formation",

@@ -15,7 +15,7 @@ import numpy as np
 from pydantic import Field
 
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
-from coopsat.plugins.tables import MAX_GAIN, Quat, Table, Vec3
+from coopsat.plugins.tables import MAX_GAIN, MAX_TIME_S, Quat, Table, Vec3
 
 
 class AttitudePid(Table):
@@ -42,6 +42,7 @@ class LvlhPd(Table):
     rho_target_lvlh_m: Vec3 | list[Vec3] = Field(
         description="Offset from the chief to hold, LVLH, m: one [x, y, z] for every deputy, or one per spacecraft."
     )
+    start_s: float = Field(0.0, ge=0, le=MAX_TIME_S, description="The law commands nothing before this time, s.")
 
 
 def _build_attitude(table, ctx):
@@ -87,7 +88,7 @@ def _build_lvlh(table, ctx):
 
     if ctx.scenario.orbit is None:
         raise DesignError("controller: lvlh-pd needs an [orbit] table (it measures r_eci and v_eci)")
-    return Part(*as_arrays((table.k_p, table.k_d, rho_targets(table, ctx.n))))
+    return Part(*as_arrays((table.k_p, table.k_d, rho_targets(table, ctx.n), table.start_s)))
 
 
 def _verdict(name, radius, what, period_s, detail):
@@ -130,4 +131,4 @@ def check_lvlh(table, ctx):
 
 
 register(Plugin("controller", "attitude-pid", AttitudePid, _build_attitude, (check_attitude,)))
-register(Plugin("controller", "lvlh-pd", LvlhPd, _build_lvlh, (check_lvlh,)))
+register(Plugin("controller", "lvlh-pd", LvlhPd, _build_lvlh, (check_lvlh,), analysis="coopsat.analysis.papers.station_keeping"))

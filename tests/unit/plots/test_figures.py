@@ -197,7 +197,7 @@ def test_figure_makers_draw_only_when_called(stem):
 def _short_s(name):
     if name.startswith("deepspace-"):
         return 500.0
-    return {"orbit-two-body": 100.0, "rigid-body-free": 2.0, "leo-iss-tle-roe": 120.0}.get(
+    return {"orbit-two-body": 100.0, "rigid-body-free": 2.0, "leo-iss-tle-roe": 120.0, "leo-swarm-100": 40.0}.get(
         name, 200.0 if name.startswith("cartwheel-") else 5.0)
 
 

@@ -7,7 +7,9 @@ set of F flat facets, the same on every spacecraft: unit outward normals ``norma
 areas ``areas_m2`` (F,), and centres of pressure ``centres_b_m`` (3, F) measured from the centre
 of mass, body axes. A facet feels the flow or the light only on its front side (``n·û > 0``);
 facets shadowing one another are not modelled (Basilisk's ``facetDragDynamicEffector`` and
-``facetSRPDynamicEffector`` make the same choice).
+``facetSRPDynamicEffector`` make the same choice). The radiation-pressure force on the facets
+(:func:`facet_srp_force_b`, the ``solar-radiation-pressure`` force about the Earth) is here too,
+beside the torque, from the same per-facet forces.
 """
 
 
@@ -75,35 +77,56 @@ def facet_drag_torque_b(v_rel_b_m_s, density_kg_m3_, normals_b, areas_m2, centre
     return cross(lever, -0.5 * density_kg_m3_ * cd * speed**2 * v_hat, 0)
 
 
-def facet_srp_torque_b(sun_b, pressure_n_m2, normals_b, areas_m2, centres_b_m, specular, diffuse):
-    """Solar radiation pressure torque on flat facets, N·m, body axes.
+def facet_srp_components(sun_b, pressure_n_m2, normals_b, areas_m2, specular, diffuse):
+    """Solar radiation pressure on each flat facet, split along the ray and the normal, N.
+
+    The one model of the facet force: :func:`facet_srp_force_b` and :func:`facet_srp_torque_b`
+    both reduce these, so the force and the torque cannot disagree.
 
     Parameters
     ----------
     sun_b : (3, n)
-        Unit vector to the Sun, body axes.
+        Unit vector from the spacecraft to the Sun, body axes.
     pressure_n_m2 : (n,)
         Pressure on an absorber at the spacecraft, N/m² (0 in shadow).
     normals_b : (3, F)
+        Unit outward normals, body axes.
     areas_m2, specular, diffuse : (F,)
         Areas, m², and the fractions of light reflected specularly and diffusely
         (``specular + diffuse ≤ 1``; the rest is absorbed).
-    centres_b_m : (3, F)
 
     Returns
     -------
-    jax.Array, (3, n)
+    along_ray, along_normal : jax.Array, (F, n)
+        ``a_f`` and ``b_f``, N, of each facet's force ``F_f = −(a_f ŝ + b_f n_f)``; both 0 on a
+        facet that the light reaches edge-on or from behind (``cos θ = n_f·ŝ ≤ 0``).
 
     Notes
     -----
     ``F_f = −P A_f cos θ [(1 − c_s) ŝ + 2 (c_s cos θ + c_d/3) n_f]`` on each lit facet (Wertz
-    §17.2, eq. 17-12; Montenbruck & Gill eq. 3.72): absorbed and diffuse light push along the
-    ray, specular and diffuse reflection along the normal.
+    §17.2, eq. 17-12; Montenbruck & Gill §3.4): absorbed and diffuse light push along the ray,
+    specular and diffuse reflection along the normal.
     """
     projected, cos = lit_area(normals_b, areas_m2, sun_b)
-    along_ray = centres_b_m @ (projected * (1.0 - specular)[:, None])
-    along_normal = cross(centres_b_m, normals_b, 0) @ (2.0 * projected * (specular[:, None] * cos + diffuse[:, None] / 3.0))
-    return -pressure_n_m2 * (cross(along_ray, sun_b, 0) + along_normal)
+    pushed = pressure_n_m2 * projected
+    return pushed * (1.0 - specular)[:, None], 2.0 * pushed * (specular[:, None] * cos + diffuse[:, None] / 3.0)
+
+
+def facet_srp_force_b(sun_b, pressure_n_m2, normals_b, areas_m2, specular, diffuse):
+    """Solar radiation pressure force on flat facets, ``Σ_f F_f``, N, body axes, (3, n);
+    arguments as :func:`facet_srp_components`."""
+    along_ray, along_normal = facet_srp_components(sun_b, pressure_n_m2, normals_b, areas_m2, specular, diffuse)
+    return -(sun_b * jnp.sum(along_ray, axis=0) + normals_b @ along_normal)
+
+
+def facet_srp_torque_b(sun_b, pressure_n_m2, normals_b, areas_m2, centres_b_m, specular, diffuse):
+    """Solar radiation pressure torque on flat facets, ``Σ_f c_f × F_f``, N·m, body axes, (3, n).
+
+    Arguments as :func:`facet_srp_components`, and the centres of pressure ``centres_b_m``
+    (3, F), m, body axes, from the centre of mass.
+    """
+    along_ray, along_normal = facet_srp_components(sun_b, pressure_n_m2, normals_b, areas_m2, specular, diffuse)
+    return -(cross(centres_b_m @ along_ray, sun_b, 0) + cross(centres_b_m, normals_b, 0) @ along_normal)
 
 
 @part()

@@ -22,9 +22,9 @@ from coopsat.astro.ephemeris import (
 )
 from coopsat.astro.gravity_field import harmonic_accel_ecef
 from coopsat.core.parts import OutputSpec, part
-from coopsat.environment.earth_torques import body_columns_m, lit_area, relative_wind_eci
+from coopsat.environment.earth_torques import body_columns_m, facet_srp_force_b, lit_area, relative_wind_eci
 from coopsat.environment.torques import Stateless
-from coopsat.geometry.quaternion import quat_rotate_inverse
+from coopsat.geometry.quaternion import quat_rotate, quat_rotate_inverse
 
 SECONDS_PER_DAY = 86400.0
 
@@ -172,12 +172,18 @@ _SHADOWS = {"conical": shadow_fraction_conical, "cylindrical": shadow_fraction_c
 
 @part(static=("shadow",))
 class EarthSolarRadiationPressure(Stateless):
-    """Solar radiation pressure on a cannonball about the Earth, dimmed by the Earth's shadow.
+    """Solar radiation pressure about the Earth, dimmed by the Earth's shadow: on a cannonball,
+    or on flat facets whose force follows the attitude.
 
     Attributes
     ----------
     area_m2, reflectivity : (n,)
-        Sun-facing area, m², and specular reflectivity (``C_r = 1 + reflectivity``).
+        Cannonball Sun-facing area, m², and specular reflectivity (``C_r = 1 + reflectivity``);
+        ignored with facets.
+    normals_b : (3, F)
+        Facets' unit outward normals, body axes; F = 0 for a cannonball.
+    areas_m2, specular, diffuse : (F,)
+        Facets' areas, m², and the fractions of light they reflect specularly and diffusely.
     pressure_1au_n_m2, au_m : scalar
     jd0_tt : scalar
         Julian date of t = 0.
@@ -187,6 +193,10 @@ class EarthSolarRadiationPressure(Stateless):
 
     area_m2: jnp.ndarray
     reflectivity: jnp.ndarray
+    normals_b: jnp.ndarray
+    areas_m2: jnp.ndarray
+    specular: jnp.ndarray
+    diffuse: jnp.ndarray
     pressure_1au_n_m2: jnp.ndarray
     au_m: jnp.ndarray
     jd0_tt: jnp.ndarray
@@ -197,8 +207,15 @@ class EarthSolarRadiationPressure(Stateless):
         light = _SHADOWS[self.shadow](x.r_eci, r_sun, 0)
         from_sun = x.r_eci - r_sun
         distance2 = jnp.sum(from_sun * from_sun, axis=0)
-        scale = light * self.pressure_1au_n_m2 * self.au_m**2 * self.area_m2 * (1.0 + self.reflectivity) / (distance2 * jnp.sqrt(distance2))
-        return scale * from_sun, light
+        if self.areas_m2.shape[0] == 0:
+            scale = light * self.pressure_1au_n_m2 * self.au_m**2 * self.area_m2 * (1.0 + self.reflectivity) / (distance2 * jnp.sqrt(distance2))
+            return scale * from_sun, light
+        sun_eci = -from_sun / jnp.sqrt(distance2)
+        pressure = light * self.pressure_1au_n_m2 * self.au_m**2 / distance2
+        force_b = facet_srp_force_b(
+            quat_rotate_inverse(x.q_bi, sun_eci, 0), pressure, self.normals_b, self.areas_m2, self.specular, self.diffuse
+        )
+        return quat_rotate(x.q_bi, force_b, 0), light
 
     def wrench(self, t, x, state):
         return {"force_eci": self._force_and_light(t, x)[0]}

@@ -9,41 +9,13 @@ being the central body.
 import functools
 from typing import Annotated, Literal, NamedTuple
 
-from pydantic import Field, model_validator
+from pydantic import Field
 
 from coopsat.astro.constants import AU_M, MU_EARTH_M3_S2, SOLAR_PRESSURE_1AU_N_M2
 from coopsat.plugins import DesignError, Plugin, register
-from coopsat.plugins.tables import Bounded3, Record, Table, vector_norm
-
-FACET = Record(float, float, float, float, float, float, float)
-"""One flat facet as a scenario row: [nx, ny, nz, area_m2, cx, cy, cz]."""
+from coopsat.plugins.tables import Bounded3, Facets, Table
 
 Fraction = Annotated[float, Field(ge=0, le=1)]
-
-
-class Facets(Table):
-    """The surface: flat facets given as ``[nx, ny, nz, area_m2, cx, cy, cz]``."""
-
-    facets: list[FACET] = Field(
-        min_length=1,
-        description="Flat facets, one per row: [nx, ny, nz, area_m2, cx, cy, cz] — outward normal (body axes; "
-        "normalised), area in m², centre of pressure relative to the centre of mass, m, body axes.",
-    )
-
-    @model_validator(mode="after")
-    def _facets_physical(self):
-        import numpy as np
-
-        for k, (nx, ny, nz, area, *centre) in enumerate(self.facets):
-            if not np.isfinite([nx, ny, nz, area, *centre]).all():
-                raise ValueError(f"facets[{k}]: every number must be finite")
-            if vector_norm([nx, ny, nz]) == 0.0:
-                raise ValueError(f"facets[{k}]: the normal [nx, ny, nz] must not be zero")
-            if not 0.0 < area <= 1e4:
-                raise ValueError(f"facets[{k}]: area_m2 must be in (0, 1e4] m², got {area:g}")
-            if vector_norm(centre) > 1e3:
-                raise ValueError(f"facets[{k}]: centre of pressure more than 1 km from the centre of mass")
-        return self
 
 
 class AerodynamicTorqueTable(Facets):
@@ -180,17 +152,26 @@ def _build_aero(table, ctx):
     return AerodynamicTorque(*as_arrays((*facet_arrays(table), table.cd)))
 
 
+def facet_optics(table, kind):
+    """specular, diffuse (F,) of a table with ``facets``, ``specular`` and ``diffuse`` (one
+    value each, or one per facet); a DesignError naming ``kind`` where a facet would reflect
+    more than all its light."""
+    count = len(table.facets)
+    specular = _per_facet(table.specular, count, "specular")
+    diffuse = _per_facet(table.diffuse, count, "diffuse")
+    if (specular + diffuse > 1.0).any():
+        k = int((specular + diffuse > 1.0).argmax())
+        raise DesignError(f"disturbances: {kind} facet {k} reflects more than all its light (specular + diffuse > 1)")
+    return specular, diffuse
+
+
 def _build_srp(table, ctx):
     from coopsat.environment.earth_torques import SolarPressureTorque
     from coopsat.sim.system import as_arrays
 
     require_earth_orbit(ctx, "disturbances: solar-pressure-torque")
     normals, areas, centres = facet_arrays(table)
-    specular = _per_facet(table.specular, areas.size, "specular")
-    diffuse = _per_facet(table.diffuse, areas.size, "diffuse")
-    if (specular + diffuse > 1.0).any():
-        k = int((specular + diffuse > 1.0).argmax())
-        raise DesignError(f"disturbances: solar-pressure-torque facet {k} reflects more than all its light (specular + diffuse > 1)")
+    specular, diffuse = facet_optics(table, "solar-pressure-torque")
     arrays = (normals, areas, centres, specular, diffuse, table.pressure_1au_n_m2, AU_M, epoch(ctx).jd_tt)
     return SolarPressureTorque(*as_arrays(arrays))
 

@@ -9,13 +9,13 @@ need every spacecraft's ``mass_kg``. Their Sun, Moon and Earth rotation follow
 
 from typing import Annotated, Literal
 
-from pydantic import Field, ValidationError, model_validator
+from pydantic import Field, model_validator
 
 from coopsat.astro.constants import central_body_name
 from coopsat.plugins import DesignCheck, DesignError, Plugin, register
 from coopsat.plugins.disturbances import per_spacecraft
-from coopsat.plugins.earth_environment import FACET, Facets, epoch
-from coopsat.plugins.tables import Table
+from coopsat.plugins.earth_environment import epoch
+from coopsat.plugins.tables import FACET, Table, check_facets
 
 Positive = Annotated[float, Field(gt=0, le=1e6)]
 
@@ -71,10 +71,7 @@ class DragTable(Table):
             if getattr(self, field) != type(self).model_fields[field].default and self.density != model:
                 raise ValueError(f"{field} is only read with density = '{model}'")
         if self.facets is not None:
-            try:
-                Facets(facets=self.facets)
-            except ValidationError as exc:
-                raise ValueError(exc.errors()[0]["msg"].removeprefix("Value error, ")) from None
+            check_facets(self.facets)
         return self
 
 

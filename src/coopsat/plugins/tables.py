@@ -10,7 +10,7 @@ import sys
 from typing import Annotated
 
 import numpy as np
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 from pydantic_core import core_schema
 
 QUAT_NORM_TOL = 0.05
@@ -252,3 +252,39 @@ class FormationTolerance(Table):
     formation_tolerance_m: float = Field(
         1.0, gt=0, le=MAX_DISTANCE_M, description="Formation error (translation removed) that counts as settled, m."
     )
+
+
+FACET = Record(float, float, float, float, float, float, float)
+"""One flat facet as a scenario row: [nx, ny, nz, area_m2, cx, cy, cz]."""
+
+
+class Facets(Table):
+    """The surface: flat facets given as ``[nx, ny, nz, area_m2, cx, cy, cz]``."""
+
+    facets: list[FACET] = Field(
+        min_length=1,
+        description="Flat facets, one per row: [nx, ny, nz, area_m2, cx, cy, cz] — outward normal (body axes; "
+        "normalised), area in m², centre of pressure relative to the centre of mass, m, body axes.",
+    )
+
+    @model_validator(mode="after")
+    def _facets_physical(self):
+        for k, (nx, ny, nz, area, *centre) in enumerate(self.facets):
+            if not np.isfinite([nx, ny, nz, area, *centre]).all():
+                raise ValueError(f"facets[{k}]: every number must be finite")
+            if vector_norm([nx, ny, nz]) == 0.0:
+                raise ValueError(f"facets[{k}]: the normal [nx, ny, nz] must not be zero")
+            if not 0.0 < area <= 1e4:
+                raise ValueError(f"facets[{k}]: area_m2 must be in (0, 1e4] m², got {area:g}")
+            if vector_norm(centre) > 1e3:
+                raise ValueError(f"facets[{k}]: centre of pressure more than 1 km from the centre of mass")
+        return self
+
+
+def check_facets(facets):
+    """Facet rows checked as :class:`Facets` checks them, for a table whose surface is facets or
+    something else (a cannonball area): a ValueError with :class:`Facets`' own message."""
+    try:
+        Facets(facets=facets)
+    except ValidationError as exc:
+        raise ValueError(exc.errors()[0]["msg"].removeprefix("Value error, ")) from None

@@ -187,6 +187,8 @@ def check_ephemeris(table, ctx):
     return DesignCheck("ephemeris", ok, note + ("" if ok else " — beyond the series' accuracy"), metrics, diff)
 
 
-register(Plugin("disturbance", "gravity-field", GravityFieldTable, _build_gravity_field))
-register(Plugin("disturbance", "third-body", ThirdBodyTable, _build_third_body, (check_ephemeris,)))
-register(Plugin("disturbance", "drag", DragTable, _build_drag))
+ANALYSIS = "coopsat.analysis.papers.low_orbit"
+
+register(Plugin("disturbance", "gravity-field", GravityFieldTable, _build_gravity_field, analysis=ANALYSIS))
+register(Plugin("disturbance", "third-body", ThirdBodyTable, _build_third_body, (check_ephemeris,), analysis=ANALYSIS))
+register(Plugin("disturbance", "drag", DragTable, _build_drag, analysis=ANALYSIS))

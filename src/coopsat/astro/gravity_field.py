@@ -133,17 +133,31 @@ def harmonic_accel_ecef(r_ecef_m, c, s, gm_m3_s2, radius_m, axis=-1):
     ``d_nm = √((2 − δ_m0)/2 · (n − m)(n + m + 1))`` (the ratio of the normalisations of
     ``d^m P_n/du^m`` and ``d^{m+1} P_n/du^{m+1}``).
 
-    Each degree is one row over its orders ``m = 0 … n`` (no padding to N: the triangle is
-    half the square); every operation is elementwise over the spacecraft, so XLA fuses a
-    degree's work into a few loops over them.
+    The sums run over the degrees first: for each order m, six per-order sums of ``Ã_nm``
+    weighted by the coefficients (:func:`_per_order_weights`), which the powers of w then
+    combine once. Degree n is a row of its n + 1 orders only (the triangle, not the square),
+    unrolled at trace time: measured in the loop at N = 1000 spacecraft, degree 20, 4.3 ms a
+    tick against 16.5 ms for a ``fori_loop`` over square rows summed degree by degree, for a
+    compile of 10.7 s against 6.3 s (degree 70: 48 against 181 ms, 57 against 27 s).
     """
     degree = jnp.shape(c)[0] - 1
-    a_f, b_f, c_f, d_f = (jnp.asarray(f) for f in _recursion_factors(degree))
+    a_f, b_f, c_f, _ = _recursion_factors(degree)
     x, y, z = jnp.moveaxis(jnp.asarray(r_ecef_m), axis, 0)
     r = jnp.sqrt(x * x + y * y + z * z)
     sx, ty, u, q = x / r, y / r, z / r, radius_m / r
-    lead = (slice(None),) + (None,) * r.ndim
-
+    col = (Ellipsis,) + (None,) * r.ndim  # a vector over orders against the spacecraft axes
+    weights = _per_order_weights(jnp.asarray(c), jnp.asarray(s))
+    qu, qq = q * u, q * q
+    # Rows 0 and 1 of Ã (Ã_00 = 1; Ã_10 = √3 u q, Ã_11 = √3 q) start the recursion over 2 … N.
+    prev2 = jnp.ones((1,) + r.shape, dtype=r.dtype)
+    prev = jnp.stack([np.sqrt(3.0) * qu, np.sqrt(3.0) * q])
+    sums = jnp.zeros((6, degree + 1) + r.shape, dtype=r.dtype)
+    for n in range(2, degree + 1):
+        below = prev2 if n == 2 else jnp.concatenate([prev2, jnp.zeros_like(prev2[:1])])  # Ã_{n−2,m}, 0 at m = n − 1
+        lower = a_f[n, :n][col] * qu * prev - b_f[n, :n][col] * qq * below  # Ã_nm, m < n
+        row = jnp.concatenate([lower, (c_f[n] * q * prev[-1])[None]])  # Ã_nn = c_n q Ã_{n−1,n−1}
+        sums = sums.at[:, : n + 1].add(weights[:, n, : n + 1][col] * row[None])
+        prev2, prev = prev, row
     # w^m = (s + i t)^m, m = 0 … N, and w^{m−1} (zero at m = 0, where the factor m kills it).
     re, im = [jnp.ones_like(r)], [jnp.zeros_like(r)]
     for _ in range(degree):
@@ -151,35 +165,39 @@ def harmonic_accel_ecef(r_ecef_m, c, s, gm_m3_s2, radius_m, axis=-1):
     re, im = jnp.stack(re), jnp.stack(im)
     re_1 = jnp.concatenate([jnp.zeros_like(re[:1]), re[:-1]])
     im_1 = jnp.concatenate([jnp.zeros_like(im[:1]), im[:-1]])
-    orders = jnp.arange(degree + 1, dtype=r.dtype)[lead]
-    c, s = jnp.asarray(c), jnp.asarray(s)
-
-    def shift_up(row):  # Ã_{n,m+1} at m (zero at m = N)
-        return jnp.concatenate([row[1:], jnp.zeros_like(row[:1])])
-
-    def degree_step(n, carry):
-        """Row n of Ã from rows n − 1 and n − 2, and its terms of the four sums."""
-        prev2, prev, radial, g_s, g_t, g_u = carry
-        sectoral = jnp.concatenate([jnp.zeros_like(prev[:1]), prev[:-1]])  # Ã_{n−1,m−1}
-        row = q * (a_f[n][lead] * u * prev - b_f[n][lead] * q * prev2 + jnp.where(orders == n, c_f[n], 0.0) * sectoral)
-        cn, sn = c[n][lead], s[n][lead]
-        big_d = cn * re + sn * im
-        radial = radial + (n + 1) * jnp.sum(row * big_d, axis=0)
-        g_s = g_s + jnp.sum(orders * row * (cn * re_1 + sn * im_1), axis=0)
-        g_t = g_t + jnp.sum(orders * row * (sn * re_1 - cn * im_1), axis=0)
-        g_u = g_u + jnp.sum(d_f[n][lead] * shift_up(row) * big_d, axis=0)
-        return prev, row, radial, g_s, g_t, g_u
-
-    # Rows 0 and 1 (Ã_00 = 1; Ã_10 = √3 u q, Ã_11 = √3 q) start the loop over degrees 2 … N, a
-    # fori_loop so that the compiled program does not grow with the degree.
-    zeros = jnp.zeros((degree + 1,) + r.shape, dtype=r.dtype)
-    row0 = zeros.at[0].set(1.0)
-    row1 = zeros.at[0].set(np.sqrt(3.0) * u * q).at[1].set(np.sqrt(3.0) * q)
-    zero = jnp.zeros_like(r)
-    _, _, radial, g_s, g_t, g_u = jax.lax.fori_loop(2, degree + 1, degree_step, (row0, row1, zero, zero, zero, zero))
+    rad_c, rad_s, ord_c, ord_s, du_c, du_s = sums
+    radial = jnp.sum(rad_c * re + rad_s * im, axis=0)
+    g_s = jnp.sum(ord_c * re_1 + ord_s * im_1, axis=0)
+    g_t = jnp.sum(ord_s * re_1 - ord_c * im_1, axis=0)
+    g_u = jnp.sum(du_c * re_1 + du_s * im_1, axis=0)
     scale = gm_m3_s2 / (r * r)
     along_r = -radial - (sx * g_s + ty * g_t + u * g_u)
     return jnp.stack([scale * (along_r * sx + g_s), scale * (along_r * ty + g_t), scale * (along_r * u + g_u)], axis=axis)
+
+
+def _per_order_weights(c, s):
+    """Weights ``[k, n, m]`` (6, N+1, N+1) of ``Ã_nm`` in the six per-order sums over n.
+
+    Parameters
+    ----------
+    c, s : (N+1, N+1)
+        Fully normalised coefficients ``[n, m]`` (traced: a campaign may disperse them).
+
+    Returns
+    -------
+    jax.Array
+        ``(n+1) C̄_nm``, ``(n+1) S̄_nm`` (the radial derivative, against ``Re w^m``, ``Im w^m``);
+        ``m C̄_nm``, ``m S̄_nm`` (the s and t derivatives, against ``w^{m−1}``); and
+        ``d_{n,m−1} C̄_{n,m−1}``, ``d_{n,m−1} S̄_{n,m−1}`` at m (the u derivative,
+        ``Σ_m d_nm Ã_{n,m+1} (C̄_nm Re w^m + S̄_nm Im w^m)`` shifted by one order, against
+        ``w^{m−1}``).
+    """
+    degree = c.shape[0] - 1
+    _, _, _, d_f = _recursion_factors(degree)
+    n = np.arange(degree + 1, dtype=float)[:, None]
+    m = np.arange(degree + 1, dtype=float)[None, :]
+    shifted = lambda coef: jnp.zeros_like(coef).at[:, 1:].set(d_f[:, :-1] * coef[:, :-1])  # noqa: E731
+    return jnp.stack([(n + 1) * c, (n + 1) * s, m * c, m * s, shifted(c), shifted(s)])
 
 
 def harmonic_potential(r_ecef_m, c, s, gm_m3_s2, radius_m, axis=-1):

@@ -192,3 +192,13 @@ def test_bad_input_is_one_line(path, value, words):
     with pytest.raises(coopsat.ScenarioError) as err:
         coopsat.validate(coopsat.Scenario.load("leo-swarm-100").set(path, value))
     assert all(w in str(err.value) for w in words) and "\n" not in str(err.value)
+
+
+def test_a_run_that_ends_before_the_law_starts_has_no_slot_error_metrics():
+    """leo-pair-differential-drag's law starts at 6 h: a 60 s run judges nothing (null), and
+    spends nothing."""
+    import coopsat
+
+    result = coopsat.run(coopsat.Scenario.load("leo-pair-differential-drag").set("sim.t_final_s", 60.0))
+    assert result.metrics["slot_error_along_track_max_m"] is None
+    assert result.metrics["delta_v_m_s_deputy"] == 0.0 and result.metrics["delta_v_per_day_max_m_s"] == 0.0

@@ -9,7 +9,8 @@ at every sample (x along-track, y against the orbit normal, z to nadir).
 * ``slot_error_along_track_max_m``, ``slot_error_cross_track_max_m``,
   ``slot_error_radial_max_m``: the largest |error| on each axis over the spacecraft and the
   judged window, the second half of the time after the law starts (``start_s``): the first half
-  is left to the capture of a free-drift start.
+  is left to the capture of a free-drift start. None (JSON null) for a run that ends before the
+  law starts.
 * ``delta_v_m_s_<name>``: ``Σ_axes ∫|F| dt / m`` over the run, per spacecraft (what per-axis
   thrusters spend).
 * ``delta_v_per_day_max_m_s``, ``delta_v_per_day_mean_m_s``: the rate over the run's last day
@@ -88,9 +89,9 @@ def metrics(ds, built):
     t = ds["time"].values
     start = _start_s(built)
     err = ds["slot_error_lvlh"].values if "slot_error_lvlh" in ds else series(ds, built)["slot_error_lvlh"].values
-    window = np.abs(err[judged(t, start)])
+    window = np.abs(err[judged(t, start) & (t >= start)])
     m = {
-        f"slot_error_{axis}_max_m": float(window[..., c].max())
+        f"slot_error_{axis}_max_m": float(window[..., c].max()) if window.size else None
         for c, axis in enumerate(("along_track", "cross_track", "radial"))
     }
     if "abs_force_impulse" in ds:

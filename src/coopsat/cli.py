@@ -14,8 +14,10 @@ import sys
 import threading
 import warnings
 
-EXIT_BAD_INPUT = 2
-EXIT_STAGE_FAILED = 3
+from coopsat.errors import CoopsatError, StageFailedError
+
+EXIT_BAD_INPUT = CoopsatError.exit_status
+EXIT_STAGE_FAILED = StageFailedError.exit_status
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 EXIT_BROKEN_PIPE = 141
@@ -44,25 +46,6 @@ def configure_process(cache=True):
         for name, value in runtime.cache_settings().items():
             sys.modules["jax"].config.update(name, value)
     lazy_dask.install()
-
-
-def _input_errors():
-    from coopsat.network.topology import GraphError
-    from coopsat.workflows.pipeline import PlotError, RunFolderError
-    from coopsat.scenarios.load import ScenarioError
-    from coopsat.sim.engine import NonFiniteStateError
-    from coopsat.workflows.sweep import SweepError
-    from coopsat.workflows.deep_space_tradeoff import TradeoffError
-    from coopsat.workflows.campaign.spec import CampaignError
-    from coopsat.workflows.tune import TuneError
-    from coopsat.workflows.pair import PairError
-    from coopsat.plugins import PluginError
-    from coopsat.sim.native.capability import NativeUnavailableError
-    from coopsat.reports import ReportError
-    from coopsat.exports.run import ExportError
-
-    return (ScenarioError, GraphError, NonFiniteStateError, RunFolderError, TradeoffError, SweepError, TuneError, CampaignError,
-            PairError, PluginError, NativeUnavailableError, ReportError, ExportError, PlotError)
 
 
 def _print_catalogue(names, description):
@@ -552,7 +535,6 @@ def main(argv=None):
     the loop, between stages, right before its folder is renamed into place) and its last line
     says either "nothing written" or which folder is complete (:mod:`coopsat.workflows.interrupt`).
     """
-    from coopsat.analysis.stages import StageError
     from coopsat.workflows import interrupt
 
     args = build_parser().parse_args(argv)
@@ -564,12 +546,9 @@ def main(argv=None):
         with warnings.catch_warnings():
             warnings.showwarning = _show_notice
             status = args.func(args)
-    except _input_errors() as err:
+    except CoopsatError as err:  # every coopsat error, its status by cause (coopsat.errors)
         print(f"coopsat: error: {err}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except StageError as err:
-        print(f"coopsat: error: {err}", file=sys.stderr)
-        return EXIT_STAGE_FAILED
+        return err.exit_status
     except (KeyboardInterrupt, interrupt.Interrupted) as err:
         stop = getattr(err, "signum", signal.SIGINT)
     except BrokenPipeError:

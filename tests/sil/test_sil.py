@@ -14,6 +14,7 @@ import pytest
 
 import coopsat
 from coopsat.workflows.sil.processes import SILError
+from coopsat.workflows.sil.schema import SILSetupError
 from coopsat.workflows.sil.run import sil
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -194,7 +195,7 @@ def test_no_process_remains_after_a_stop(tmp_path, how):
     ({"externals": {"sat2": "no-such-program-xyz"}}, "--external sat2: cannot start 'no-such-program-xyz'"),
 ])
 def test_bad_input_is_one_line_before_anything_starts(kwargs, says):
-    with pytest.raises(SILError, match="^" + says.replace("(", r"\(").replace(")", r"\)")):
+    with pytest.raises(SILSetupError, match="^" + says.replace("(", r"\(").replace(")", r"\)")):
         sil(_short(), **kwargs)
 
 
@@ -225,7 +226,7 @@ def test_a_controller_that_cannot_be_split_is_refused_saying_why():
     s = coopsat.Scenario.load("cartwheel-keeping-ground").set("published", []).set("sim.t_final_s", 100.0)
     s = s.update({"controller": {"kind": "lvlh-pd", "period_s": 1.0, "k_p": 1e-3, "k_d": 0.1,
                                  "rho_target_lvlh_m": [0.0, 100.0, 0.0]}})
-    with pytest.raises(SILError, match="^controller kind 'lvlh-pd' cannot be split per spacecraft: each deputy's law "
+    with pytest.raises(SILSetupError, match="^controller kind 'lvlh-pd' cannot be split per spacecraft: each deputy's law "
                                        "reads the chief's measured orbit directly, not through the network"):
         sil(s)
 

@@ -7,6 +7,7 @@ with a :class:`StageError` that carries everything that was computed (and where 
 
 from dataclasses import dataclass
 
+from coopsat.errors import StageFailedError
 from coopsat.core.errors import one_line
 
 
@@ -46,7 +47,7 @@ def guarded(failures, stage, source, fallback, fn, *args):
         return fallback
 
 
-class StageError(RuntimeError):
+class StageError(StageFailedError):
     """A stage after the simulation failed; the run itself is kept.
 
     Attributes

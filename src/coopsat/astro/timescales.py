@@ -25,6 +25,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from coopsat.errors import InputError
+
 SECONDS_PER_DAY = 86400.0
 TT_MINUS_TAI_S = 32.184
 """TT − TAI, s (by definition)."""
@@ -39,7 +41,7 @@ EPOCH_SCALES = ("utc", "tai", "tt")
 """Scales in which a scenario may give its epoch (``[orbit] epoch_utc``, ``epoch_tai``, ``epoch_tt``)."""
 
 
-class TimeScaleError(ValueError):
+class TimeScaleError(InputError):
     """An epoch that cannot be placed on TT (before UTC began, beyond the leap-second table)."""
 
 

@@ -12,8 +12,10 @@ import math
 
 import numpy as np
 
+from coopsat.errors import DesignError
 
-class FormationDesignError(ValueError):
+
+class FormationDesignError(DesignError):
     """A formation design step failed; the message (one line) says which and why."""
 
 

@@ -18,10 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
+from coopsat.errors import InputError
 from coopsat.astro.constants import central_body_name
 
 
-class ExportError(ValueError):
+class ExportError(InputError):
     """A run that cannot be exported in the format asked, or an output that cannot be written:
     one line naming the cause."""
 
@@ -79,26 +80,21 @@ class RunStates:
 
 
 def open_dataset(source):
-    """The run's dataset: ``source`` is a run folder (``coopsat run``; its ``result.nc``) or
-    anything with a ``dataset`` (a :class:`coopsat.Result`).
+    """The run's dataset: ``source`` is a run folder (``coopsat run``; its ``result.nc``, read by
+    :func:`coopsat.workflows.folders.read_record` as ``load_run`` reads it, without rebuilding
+    the scenario: an export needs only the record) or anything with a ``dataset`` (a
+    :class:`coopsat.Result`).
 
     Raises
     ------
     ExportError
-        A folder without ``result.nc``, or a file that is not a readable netCDF.
+        A folder without a readable ``result.nc`` and its scenario.
     """
     if hasattr(source, "dataset"):
         return source.dataset
-    path = Path(source) / "result.nc"
-    if not path.is_file():
-        raise ExportError(f"{source}: not a run folder (no result.nc; write one with coopsat run)")
-    import xarray as xr
+    from coopsat.workflows.folders import read_record
 
-    try:
-        with xr.open_dataset(path, engine="h5netcdf") as ds:
-            return ds.load()
-    except (OSError, ValueError) as err:
-        raise ExportError(f"{path}: cannot be read as a run's result ({err})") from None
+    return read_record(source, ExportError)[0]
 
 
 def _instant(iso):

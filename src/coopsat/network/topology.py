@@ -16,8 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from coopsat.errors import InputError
 
-class GraphError(ValueError):
+
+class GraphError(InputError):
     """A graph that is malformed or cannot do what the scenario asks of it."""
 
 

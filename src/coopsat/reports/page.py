@@ -16,12 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
+from coopsat.errors import PlatformError
+
 MAX_SERIES_POINTS = 2000
 """Most samples drawn per time series: a long record is decimated by a whole stride (hover
 reads recorded values, never interpolated ones)."""
 
 
-class ReportError(RuntimeError):
+class ReportError(PlatformError):
     """The report cannot be made (its JavaScript library is missing)."""
 
 

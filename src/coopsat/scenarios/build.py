@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from coopsat.errors import CoopsatWarning
 from coopsat.network.graphs import graph_adjacency
 from coopsat.network.topology import GraphError
 from coopsat.plugins import BuildContext, DesignCheck, DesignError, plugin_for
@@ -19,7 +20,7 @@ from coopsat.scenarios.load import ScenarioError
 from coopsat.scenarios.schema import Scenario, whole_ratio
 
 
-class DesignWarning(UserWarning):
+class DesignWarning(CoopsatWarning):
     """A run that will not do what its design promises (unstable sampling, a graph that cannot
     agree, …): issued before the simulation."""
 

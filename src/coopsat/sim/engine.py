@@ -20,6 +20,7 @@ import math
 import time
 from dataclasses import dataclass, replace
 
+from coopsat.errors import SimulationError
 from coopsat.core import runtime
 from coopsat.core.progress import progress_bar
 
@@ -37,7 +38,7 @@ __all__ = ["MAX_CHUNK", "NonFiniteStateError", "RunOutput", "bucket_runs", "outp
            "run_samples", "simulate", "with_native_decided"]
 
 
-class NonFiniteStateError(RuntimeError):
+class NonFiniteStateError(SimulationError):
     """The state became NaN or infinite, or diverged beyond :data:`DIVERGED`, during a run."""
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from coopsat.errors import InputError
 from coopsat.analysis.tradeoff import formation_fuel_bound_ns, fuel_on_front, matched_saving, pareto_front
 from coopsat.workflows.folders import atomic_folder, check_folder
 
@@ -32,7 +33,7 @@ it the tuner finds gains that arrive in time and then drift (radius 1.0006 measu
 the run's horizon is all the fuel objective sees."""
 
 
-class TradeoffError(ValueError):
+class TradeoffError(InputError):
     """A trade-off that cannot be run as asked (one line)."""
 
 

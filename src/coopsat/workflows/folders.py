@@ -146,3 +146,20 @@ def atomic_folder(out_dir, error):
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def read_record(run_dir, error):
+    """A run folder's record and the scenario it ran: (``result.nc`` as a Dataset, the
+    :class:`~coopsat.scenarios.document.Scenario` of its resolved TOML); ``error`` (an exception
+    class) names a folder without a readable record in one line."""
+    import xarray as xr
+
+    from coopsat.scenarios.document import Scenario as Document
+
+    if not (Path(run_dir) / "result.nc").is_file():
+        raise error(f"{run_dir}: not a run folder (no result.nc; write one with coopsat run)")
+    try:
+        ds = xr.load_dataset(Path(run_dir) / "result.nc", engine="h5netcdf")
+        return ds, Document.from_toml(ds.attrs["scenario_toml"])
+    except (OSError, ValueError, KeyError) as err:
+        raise error(f"{run_dir}: no run record to read (result.nc with its scenario_toml): {err}") from None

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from coopsat.errors import InputError
 from coopsat.analysis.papers import member, paper_modules
 from coopsat.analysis.series import run_series
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
@@ -35,7 +36,7 @@ SHARED_TABLES = ("sensors", "disturbances", "spacecraft", "orbit", "sim")
 """What two scenarios must share for their runs on one seed to be paired."""
 
 
-class PairError(ValueError):
+class PairError(InputError):
     """Two scenarios that cannot be paired, or a bad pair folder (one line)."""
 
 

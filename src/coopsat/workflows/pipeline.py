@@ -14,12 +14,13 @@ from pathlib import Path
 import numpy as np
 
 import coopsat
+from coopsat.errors import InputError
 from coopsat.workflows import interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import attitude_moves, run_metrics
 from coopsat.analysis.papers import explainers, member, paper_metrics, paper_modules, paper_series, source_of
 from coopsat.analysis.stages import StageError, guarded
-from coopsat.workflows.folders import atomic_folder, check_folder, json_ready, write_netcdf
+from coopsat.workflows.folders import atomic_folder, check_folder, json_ready, read_record, write_netcdf
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
 from coopsat.scenarios.run_length import check_run_length
 from coopsat.scenarios.load import ScenarioError, resolved_toml
@@ -251,7 +252,7 @@ RUN_MARKER = "run.json"
 it is ever replaced by a new run."""
 
 
-class RunFolderError(ValueError):
+class RunFolderError(InputError):
     """The run folder cannot be written where the user asked."""
 
 
@@ -326,21 +327,6 @@ def _save_figures(built, ds, folder, failures):
 REPORT_FILE = "report.html"
 
 
-def read_record(run_dir, error):
-    """A run folder's record and the scenario it ran: (``result.nc`` as a Dataset, the
-    :class:`~coopsat.scenarios.document.Scenario` of its resolved TOML); ``error`` (an exception
-    class) names a folder without a readable record in one line."""
-    import xarray as xr
-
-    from coopsat.scenarios.document import Scenario as Document
-
-    try:
-        ds = xr.load_dataset(Path(run_dir) / "result.nc", engine="h5netcdf")
-        return ds, Document.from_toml(ds.attrs["scenario_toml"])
-    except (OSError, ValueError, KeyError) as err:
-        raise error(f"{run_dir}: no run record to read (result.nc with its scenario_toml): {err}") from None
-
-
 def load_run(run_dir):
     """A run folder read back as a :class:`Result` (``coopsat report``, ``plot``, ``export``).
 
@@ -394,7 +380,7 @@ def _paper_figures(built, ds):
     return figures
 
 
-class PlotError(ValueError):
+class PlotError(InputError):
     """A figure a run folder does not have, or a folder without a run's record (one line)."""
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from coopsat.errors import InputError
 from coopsat.workflows import interrupt
 from coopsat.analysis.papers import paper_series
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
@@ -30,7 +31,7 @@ PRINTED_METRICS = 6
 """Metric columns printed when none are chosen (every metric is in the files)."""
 
 
-class SweepError(ValueError):
+class SweepError(InputError):
     """A sweep that cannot be run as asked (one line)."""
 
 

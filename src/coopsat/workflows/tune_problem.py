@@ -13,13 +13,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from coopsat.errors import InputError
 from coopsat.analysis.surrogates import surrogates
 from coopsat.plugins import plugin_for
 from coopsat.scenarios.build import scenario_tables
 from coopsat.scenarios.load import clip_echo
 
 
-class TuneError(ValueError):
+class TuneError(InputError):
     """A tuning that cannot be run as asked (one line)."""
 
 

@@ -41,6 +41,8 @@ from importlib import metadata
 from pathlib import Path
 from typing import NamedTuple
 
+from coopsat.errors import CoopsatWarning, PlatformError
+
 ENV = "COOPSAT_NATIVE"
 """Environment variable of the switch: ``0`` (XLA only), ``1`` (kernels, or an error), ``auto``."""
 
@@ -66,11 +68,11 @@ the probe: about 10 s of the XLA loop at the consensus benchmark's 2e6 spacecraf
 the probe's own cost with empty caches."""
 
 
-class NativeFallbackWarning(UserWarning):
+class NativeFallbackWarning(CoopsatWarning):
     """The native kernels are off in this process and the XLA path runs (results unchanged)."""
 
 
-class NativeUnavailableError(RuntimeError):
+class NativeUnavailableError(PlatformError):
     """The native kernels were required (``COOPSAT_NATIVE=1`` or ``native=True``) but cannot
     run here; or the switch has a value it does not know."""
 

@@ -25,6 +25,8 @@ from numba import carray, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from coopsat.errors import InputError
+
 HANDLER_SIGNATURE = types.int64(types.CPointer(types.int64))
 """``XLA_FFI_Error* (XLA_FFI_CallFrame*)``: the frame read as 64-bit words, the error pointer
 returned as an integer (0: success)."""
@@ -36,7 +38,7 @@ _EXECUTE = 3
 _METADATA = 1
 
 
-class KernelArgumentError(ValueError):
+class KernelArgumentError(InputError):
     """A native kernel was handed a buffer of another shape or dtype than it reads."""
 
 

@@ -31,7 +31,7 @@ from pathlib import Path
 
 from coopsat.workflows import interrupt
 from coopsat.workflows.sil import protocol, schema
-from coopsat.workflows.sil.schema import SILError
+from coopsat.workflows.sil.schema import SILError, SILSetupError
 
 POLL_SLICE_MS = 100
 """Longest time one poll blocks before the waits check for a stop request and dead processes."""
@@ -295,9 +295,9 @@ def external_command(text, name):
     try:
         argv = shlex.split(text)
     except ValueError as err:  # an unclosed quote
-        raise SILError(f"--external {name}: {err} in {text!r}") from None
+        raise SILSetupError(f"--external {name}: {err} in {text!r}") from None
     if not argv:
-        raise SILError(f"--external {name}: empty command")
+        raise SILSetupError(f"--external {name}: empty command")
     if shutil.which(argv[0]) is None:
-        raise SILError(f"--external {name}: cannot start {argv[0]!r} (not found or not executable)")
+        raise SILSetupError(f"--external {name}: cannot start {argv[0]!r} (not found or not executable)")
     return argv

@@ -14,7 +14,8 @@ import re
 
 from coopsat.workflows import interrupt
 from coopsat.workflows.sil.loop import Fault
-from coopsat.workflows.sil.processes import SILError, builtin_command, external_command
+from coopsat.workflows.sil.processes import builtin_command, external_command
+from coopsat.workflows.sil.schema import SILError, SILSetupError
 
 ANSWER_S = 10.0
 """Default longest wait for a flight-software answer in one control period, s."""
@@ -32,7 +33,7 @@ def per_spacecraft_form(controller, kind):
 
     Raises
     ------
-    SILError
+    SILSetupError
         A formation-wide law without a per-spacecraft form, saying why.
     """
     if all(hasattr(controller, a) for a in ("reads", "outbox_one", "step_one")):
@@ -40,7 +41,7 @@ def per_spacecraft_form(controller, kind):
     why = getattr(controller, "per_spacecraft_refusal", None) or (
         "its step computes every spacecraft's command at once (sums over the whole formation's links) and it offers "
         "no per-spacecraft form (reads, outbox_one, step_one; docs/sil.md)")
-    raise SILError(f"controller kind '{kind}' cannot be split per spacecraft: {why}")
+    raise SILSetupError(f"controller kind '{kind}' cannot be split per spacecraft: {why}")
 
 
 def parse_fault(text, kind, names, t_final_s):
@@ -48,24 +49,24 @@ def parse_fault(text, kind, names, t_final_s):
 
     Raises
     ------
-    SILError
+    SILSetupError
         Malformed, an unknown spacecraft, or a time outside the run.
     """
     option = f"--{kind} {text}"
     m = _FAULT.match(text.strip())
     if m is None or (kind == "kill") != (m["d"] is None):
         form = "NAME@T_S" if kind == "kill" else "NAME@T_S:DURATION_S"
-        raise SILError(f"{option}: give {form} (e.g. {'sat3@10' if kind == 'kill' else 'sat3@120:30'})")
+        raise SILSetupError(f"{option}: give {form} (e.g. {'sat3@10' if kind == 'kill' else 'sat3@120:30'})")
     if m["name"] not in names:
-        raise SILError(f"{option}: no spacecraft '{m['name']}' (spacecraft: {', '.join(names)})")
+        raise SILSetupError(f"{option}: no spacecraft '{m['name']}' (spacecraft: {', '.join(names)})")
     try:
         t_s, duration_s = float(m["t"]), float(m["d"] or 0.0)
     except ValueError:
-        raise SILError(f"{option}: times are numbers of seconds") from None
+        raise SILSetupError(f"{option}: times are numbers of seconds") from None
     if not 0.0 <= t_s < t_final_s:
-        raise SILError(f"{option}: t = {t_s:g} s is outside the run (0 to {t_final_s:g} s)")
+        raise SILSetupError(f"{option}: t = {t_s:g} s is outside the run (0 to {t_final_s:g} s)")
     if kind == "pause" and not duration_s > 0.0:
-        raise SILError(f"{option}: the pause must last more than 0 s")
+        raise SILSetupError(f"{option}: the pause must last more than 0 s")
     return Fault(kind, m["name"], t_s, duration_s)
 
 
@@ -73,7 +74,7 @@ def _commands(names, externals):
     """Each spacecraft's flight-software command: coopsat's own host, or the external one."""
     unknown = [n for n in externals if n not in names]
     if unknown:
-        raise SILError(f"--external {unknown[0]}: no such spacecraft (spacecraft: {', '.join(names)})")
+        raise SILSetupError(f"--external {unknown[0]}: no such spacecraft (spacecraft: {', '.join(names)})")
     return {n: external_command(externals[n], n) if n in externals else builtin_command() for n in names}
 
 
@@ -83,7 +84,7 @@ def parse_externals(assignments):
     for text in assignments:
         name, sep, command = text.partition("=")
         if not sep or not name.strip():
-            raise SILError(f'--external {text}: give NAME="COMMAND" (e.g. sat2="python law3.py")')
+            raise SILSetupError(f'--external {text}: give NAME="COMMAND" (e.g. sat2="python law3.py")')
         externals[name.strip()] = command
     return externals
 
@@ -159,7 +160,10 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
 
     Raises
     ------
-    SILError, ScenarioError
+    SILSetupError, ScenarioError
+        The run cannot start as asked.
+    SILError
+        A flight-software process failed or broke the protocol.
     """
     from coopsat.scenarios.document import with_overrides
     from coopsat.sim.engine import with_native_decided
@@ -177,9 +181,9 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
                                                                            for f in pause]
     fault_command = fault_command or built.scenario.sil.fault_command
     if fault_command not in ("hold", "zero"):
-        raise SILError(f"fault command '{fault_command}': give hold or zero")
+        raise SILSetupError(f"fault command '{fault_command}': give hold or zero")
     if realtime is not None and not realtime > 0:
-        raise SILError(f"--realtime {realtime:g}: give a factor above 0")
+        raise SILSetupError(f"--realtime {realtime:g}: give a factor above 0")
     commands = _commands(names, dict(externals or {}))
     for note in built.warnings:
         if on_warning is not None:

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from coopsat.scenarios.load import ScenarioError
+from coopsat.errors import ExternalProcessError, InputError
 from coopsat.workflows.sil import protocol
 
 MAX_FRAME_BYTES = 1 << 20
@@ -42,10 +42,14 @@ _FIELDS = {
 """The fields of each message a flight software sends (``error`` aside: it ends the run)."""
 
 
-class SILError(ScenarioError):
-    """A SIL run that cannot start or go on: bad input, or a flight-software process that did
-    not start, did not answer in time or broke the protocol (one line; the command line's
-    bad-input status, 2, as every ScenarioError)."""
+class SILError(ExternalProcessError):
+    """A flight-software process that did not start, did not answer in time or broke the
+    protocol (one line naming the spacecraft and the field; exit status 2)."""
+
+
+class SILSetupError(InputError):
+    """A SIL run that cannot start as asked: a law with no per-spacecraft form, a fault record
+    or an external command that cannot be used (one line naming the option; exit status 2)."""
 
 
 def replies_schema(outbox, commands, record):

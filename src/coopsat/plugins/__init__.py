@@ -16,19 +16,26 @@ A plug-in is a module that registers one or more :class:`Plugin` entries, each o
 
 Where kinds come from. :data:`PLUGIN_MODULES` lists coopsat's own modules (adding one is a new
 module and one line there). Other installed packages add kinds through the entry-point group
-``coopsat.plugins`` (:data:`ENTRY_POINT_GROUP`): each entry point names a module, and importing
-that module calls :func:`register` as coopsat's own modules do (docs/plugins.md)::
+``coopsat.plugins`` (:data:`ENTRY_POINT_GROUP`): an entry point names a module, and importing
+that module calls :func:`register` as coopsat's own modules do; or it names a :class:`Plugin`
+(or a list of them) in a module, registered as if that module had called :func:`register`
+(docs/plugins.md)::
 
     [project.entry-points."coopsat.plugins"]
     example = "coopsat_example.plugin"
+    pd = "coopsat_pd.plugin:PLUGIN"
 
 The registry loads on first use (:func:`plugins`, which the scenario schema calls when it is
-imported): coopsat's modules, then every entry point, sorted by distribution and name. Each
-registered :class:`Plugin` carries its :class:`Origin` (the distribution and module that
-registered it). Two registrations of one role and kind, a plug-in module that fails to import,
-or an entry point that names something other than a module raise :class:`PluginError`, one
-line naming both parties or the entry point; the offending entry point's kinds are then left
-out, so the error is raised once, by the call that loaded the registry.
+imported): coopsat's modules, then every entry point, sorted by distribution and name. One lock
+guards it: a thread's first call waits while another thread loads it. When one of coopsat's own
+modules fails to import, the error propagates and the registry stays unloaded (the next call
+tries again). :func:`refresh` loads the entry points installed since, until the registry is
+first read. Each registered :class:`Plugin` carries its :class:`Origin` (the distribution, the
+entry point and the module that defines its table). Two registrations of one role and kind, a
+plug-in module that fails to import, or an entry point that names something other than a
+module or Plugins raise :class:`PluginError`, one line naming both parties or the entry point;
+the offending entry point's kinds are then left out, so the error is raised once, by the call
+that loaded the registry.
 
 Plug-in modules import only light libraries at import time (pydantic, :mod:`coopsat.plugins`);
 their builders import JAX and SciPy inside, so ``coopsat list`` stays quick. A plug-in module
@@ -38,6 +45,7 @@ schema is composed from the registry, which is still loading then.
 
 import importlib
 import sys
+import threading
 from dataclasses import dataclass, field, replace
 
 from coopsat.core.errors import one_line
@@ -51,6 +59,7 @@ from coopsat.plugins.protocols import (
     LocalController,
     NetworkDelivery,
     Sensor,
+    Tunables,
     protocol_problems,
 )
 
@@ -79,14 +88,15 @@ PLUGIN_MODULES = (
 
 ENTRY_POINT_GROUP = "coopsat.plugins"
 """Entry-point group through which installed packages add plug-ins: each entry point names a
-module that registers its kinds when imported (docs/plugins.md)."""
+module that registers its kinds when imported, or a :class:`Plugin` (or a list of them) to
+register (docs/plugins.md)."""
 
 __all__ = [
     "ROLES", "PLUGIN_MODULES", "ENTRY_POINT_GROUP",
-    "Plugin", "Origin", "register", "plugins", "plugin_for", "all_kinds",
+    "Plugin", "Origin", "register", "plugins", "plugin_for", "all_kinds", "refresh",
     "PluginError", "DesignError", "DesignCheck", "Tunable", "BuildContext",
     "Controller", "LocalController", "NetworkDelivery", "Sensor", "Actuator", "Disturbance", "Builder", "Check",
-    "protocol_problems",
+    "Tunables", "protocol_problems",
     "Table", "Quaternion", "UnitVector", "part", "OutputSpec", "Pulse", "Inbox",
 ]
 
@@ -187,7 +197,8 @@ class Origin:
         ``"coopsat"`` for coopsat's own modules, the installed distribution's name for an entry
         point, None when unknown (a module registered outside any entry point).
     module : str
-        The module that called :func:`register`.
+        The module that defines the plug-in's table (:attr:`Plugin.table`): the module that
+        registers it, as a rule.
     entry_point : str or None
         The entry point's name in :data:`ENTRY_POINT_GROUP` (None for coopsat's own modules).
     """
@@ -212,51 +223,60 @@ class Plugin:
         The scenario's ``kind`` value.
     table : type
         Pydantic model of its scenario table (``kind: Literal[kind]``).
-    build : callable
+    build : Builder
         ``(table, ctx: BuildContext) -> part`` (:class:`~coopsat.plugins.protocols.Builder`); the
         part satisfies its role's protocol (:mod:`coopsat.plugins.protocols`).
-    checks : tuple of callables
+    checks : tuple of Check
         ``(table, ctx) -> DesignCheck or None`` (:class:`~coopsat.plugins.protocols.Check`), run
         after building.
     analysis : str or None
         Module with the paper's metrics and explanations (see :mod:`coopsat.analysis.papers`).
-    tunables : callable or None
-        ``(table, ctx, part) -> dict of field name -> Tunable``: the continuous fields a
-        gradient may vary (gains, weights), and how each enters the built part.
+    tunables : Tunables or None
+        ``(table, ctx, part) -> dict of field name -> Tunable``
+        (:class:`~coopsat.plugins.protocols.Tunables`): the continuous fields a gradient may vary
+        (gains, weights), and how each enters the built part.
     thresholds : type or None
         A :class:`~coopsat.plugins.tables.Table` of the ``[analysis]`` fields its paper's
         metrics read (a settle tolerance, a convergence bound): the scenario's ``[analysis]``
         table is composed from the core fields and every installed plug-in's thresholds, so a
         paper owns its thresholds. Two plug-ins may share one such table (the same class).
     origin : Origin or None
-        Set by the registry: the distribution and module that registered it.
+        Set by the registry: the distribution and entry point that registered it, and the
+        module that defines its table.
     """
 
     role: str
     kind: str
     table: type
-    build: object
-    checks: tuple = ()
+    build: Builder
+    checks: tuple[Check, ...] = ()
     analysis: str | None = None
-    tunables: object = None
+    tunables: Tunables | None = None
     thresholds: type | None = None
     origin: Origin | None = field(default=None, compare=False)
 
 
+_LOCK = threading.RLock()
+"""Guards loading and registering: a thread's first call waits while another thread loads the
+registry. Re-entrant, because the loading thread's plug-in modules call :func:`register`."""
 _REGISTRY = {role: {} for role in ROLES}
-_state = "unloaded"  # "loading" while _load imports the modules, then "loaded"
+_state = "unloaded"  # "loading" while _discover imports the modules, then "loaded"
 _read = False  # someone has read the loaded registry (the scenario schema is composed from it)
 _loading = None  # (distribution, entry point name) of the module being loaded
 _ENTRY_PACKAGES = {}  # top-level package of each entry point's module -> (distribution, entry point name)
+_TRIED = set()  # (distribution, name, value) of each entry point imported once: refresh() skips them
 
 
-def _caller_module(depth):
-    frame = sys._getframe(depth + 1)
-    return frame.f_globals.get("__name__", "?")
+def _defining_module(plugin):
+    """The module that defines the plug-in's table (its builder's when the table is not a class):
+    the module that registers it, as a rule. The table rather than the builder, because a
+    package may pair its own table with a builder it imports (coopsat's, say)."""
+    owner = plugin.table if isinstance(plugin.table, type) else plugin.build
+    return getattr(owner, "__module__", None) or "?"
 
 
 def _origin(module):
-    """The :class:`Origin` of a registration made by ``module`` now."""
+    """The :class:`Origin` of a registration of a plug-in defined in ``module``, made now."""
     if _loading is not None:
         return Origin(_loading[0], module, _loading[1])
     top = module.split(".", 1)[0]
@@ -279,18 +299,33 @@ def register(plugin):
     Returns
     -------
     Plugin
-        The registered entry, its :attr:`Plugin.origin` set.
+        The registered entry, its :attr:`Plugin.origin` set: the entry point being loaded (or
+        the one whose package defines the table, or coopsat), and the module that defines the
+        plug-in's table.
 
     Raises
     ------
     PluginError
         An unknown role, a role and kind registered already (the message names both), a
         registration after the registry was read, or a malformed member (a table that is not a
-        ``Table``, a build that cannot be called, an analysis that is not a module name…).
+        ``Table``, a build that cannot be called, an analysis that is not a module name…); and,
+        when this call loads the registry, what :func:`plugins` raises.
     """
-    if _state == "unloaded":
-        _load()
-    origin = _origin(_caller_module(1))
+    with _LOCK:
+        if _state == "unloaded":
+            _load()
+        return _add(plugin)
+
+
+def _add(plugin):
+    """Register ``plugin`` in the loaded or loading registry (the caller holds the lock).
+
+    Raises
+    ------
+    PluginError
+        As :func:`register`.
+    """
+    origin = _origin(_defining_module(plugin))
     if plugin.role not in ROLES:
         raise PluginError(
             f"plug-in {plugin.kind} of {origin}: unknown role '{plugin.role}' (roles: {', '.join(ROLES)})"
@@ -352,23 +387,48 @@ def _entry_points():
     return [(key[0], ep) for key, ep in sorted(found.items(), key=lambda kv: kv[0])]
 
 
-def _load_entry_point(dist, ep):
-    """Import one entry point's module; on failure remove what it registered and return the
-    one-line reason (None when it loaded)."""
-    global _loading
+def _as_plugins(value, where):
+    """The :class:`Plugin` objects an entry point's ``module:attribute`` names: one, or a list
+    or tuple of them.
+
+    Raises
+    ------
+    PluginError
+        It names anything else: one line saying what an entry point may name.
+    """
+    named = tuple(value) if isinstance(value, (list, tuple)) else (value,)
+    if not all(isinstance(p, Plugin) for p in named):
+        raise PluginError(
+            f"{where}: names an object that is not a Plugin ({type(value).__name__}); a {ENTRY_POINT_GROUP} entry "
+            "point names a module, whose import registers its kinds, or a coopsat.plugins.Plugin or a list of them"
+        )
+    return named
+
+
+def _import_entry_point(dist, ep):
+    """Import an entry point's module (which may register kinds) and register the Plugins its
+    attribute names, if it names one; the one-line reason it failed (None when it loaded)."""
     where = f"plug-in entry point '{ep.name}' of {dist} ({ep.value})"
-    if ep.attr:
-        return f"{where}: names an object; a {ENTRY_POINT_GROUP} entry point names a module, whose import registers its kinds"
+    try:
+        value = ep.load()  # the module, or the object its attribute names
+        if ep.attr:
+            for plugin in _as_plugins(value, where):
+                _add(plugin)
+    except PluginError as err:  # a clash (names both), an unknown role, an object that is not a Plugin
+        return str(err)
+    except Exception as err:  # noqa: BLE001 (any error of a foreign module: reported in one line)
+        return f"{where} failed to import: {one_line(err)}"
+    return None
+
+
+def _load_entry_point(dist, ep):
+    """Load one entry point; on failure remove what it registered and return the one-line
+    reason (None when it loaded)."""
+    global _loading
     before = {role: set(reg) for role, reg in _REGISTRY.items()}
     _loading = (dist, ep.name)
     try:
-        importlib.import_module(ep.module)
-    except PluginError as err:  # a clash with a kind registered already, an unknown role: names both
-        failure = str(err)
-    except Exception as err:  # noqa: BLE001 (any error of a foreign module: reported in one line)
-        failure = f"{where} failed to import: {one_line(err)}"
-    else:
-        failure = None
+        failure = _import_entry_point(dist, ep)
     finally:
         _loading = None
     if failure is not None:
@@ -378,53 +438,172 @@ def _load_entry_point(dist, ep):
     return failure
 
 
-def _load():
-    """Import coopsat's plug-in modules, then every entry point of :data:`ENTRY_POINT_GROUP`.
+def _load_new_entry_points(tried):
+    """Load every entry point not loaded before, appending its module to ``tried``; the
+    one-line reason of each that failed."""
+    failures = []
+    for dist, ep in _entry_points():
+        key = (dist, ep.name, ep.value)
+        if key in _TRIED:
+            continue
+        _TRIED.add(key)
+        tried.append(ep.module)
+        _ENTRY_PACKAGES.setdefault(ep.module.split(".", 1)[0], (dist, ep.name))
+        failure = _load_entry_point(dist, ep)
+        if failure is not None:
+            failures.append(failure)
+    return failures
+
+
+def _import_own(modules):
+    """Import coopsat's plug-in modules (each registers its kinds)."""
+    global _loading
+    for module in modules:
+        _loading = ("coopsat", None)
+        try:
+            importlib.import_module(module)
+        finally:
+            _loading = None
+
+
+def _saved():
+    """What :func:`_restore` puts back: the state, the kinds, the entry points' packages and
+    tries, and the names of the modules imported so far."""
+    kinds = {role: dict(reg) for role, reg in _REGISTRY.items()}
+    return _state, kinds, dict(_ENTRY_PACKAGES), set(_TRIED), set(sys.modules)
+
+
+def _restore(saved, tried):
+    """Put the registry back as :func:`_saved` found it, and forget the modules of ``tried``
+    imported since: otherwise the next load would find them imported and their kinds would
+    never be registered again."""
+    global _state
+    _state, kinds, packages, entry_points, modules = saved
+    for role, reg in _REGISTRY.items():
+        reg.clear()
+        reg.update(kinds[role])
+    _ENTRY_PACKAGES.clear()
+    _ENTRY_PACKAGES.update(packages)
+    _TRIED.clear()
+    _TRIED.update(entry_points)
+    for module in tried:
+        if module not in modules:
+            sys.modules.pop(module, None)
+
+
+def _discover(own_modules):
+    """Import ``own_modules`` (coopsat's, on the first load) and every entry point not loaded
+    before, the registry marked as loading meanwhile (the caller holds the lock).
 
     Raises
     ------
     PluginError
-        Once, from the call that loads: one line per failed entry point, joined by "; ". The
-        kinds of a failed entry point are left out; every other kind is registered.
+        After every other kind is registered: one line per failed entry point, joined by "; "
+        (the kinds of a failed entry point are left out).
+    BaseException
+        Whatever else an import raised (one of coopsat's modules, an interrupt): the registry
+        is put back as it was, so that the next call tries again.
     """
-    global _state, _loading
-    if _state == "loaded":
-        return
-    if _state == "loading":
-        if _loading is None or _loading[1] is None:
-            who = " (while importing coopsat's plug-in modules)"
-        else:
-            who = f" (while importing {_loading[0]}'s entry point '{_loading[1]}')"
-        raise PluginError(
-            f"the plug-in registry was read while it loads{who}: a plug-in module must not read it, nor import "
-            "coopsat.scenarios (which reads it), at import time"
-        )
+    global _state
+    saved = _saved()
+    tried = list(own_modules)  # they import one another: any of them may be imported by this call
     _state = "loading"
-    failures = []
     try:
-        for module in PLUGIN_MODULES:
-            _loading = ("coopsat", None)
-            try:
-                importlib.import_module(module)
-            finally:
-                _loading = None
-        for dist, ep in _entry_points():
-            _ENTRY_PACKAGES.setdefault(ep.module.split(".", 1)[0], (dist, ep.name))
-            failure = _load_entry_point(dist, ep)
-            if failure is not None:
-                failures.append(failure)
-    finally:
-        _state = "loaded"
+        _import_own(own_modules)
+        failures = _load_new_entry_points(tried)
+    except BaseException:
+        _restore(saved, tried)
+        raise
+    _state = "loaded"
     if failures:
         raise PluginError("; ".join(failures))
 
 
+def _reentered():
+    """The error of a registry asked for by the thread that is loading it."""
+    if _loading is None or _loading[1] is None:
+        who = " (while importing coopsat's plug-in modules)"
+    else:
+        who = f" (while importing {_loading[0]}'s entry point '{_loading[1]}')"
+    return PluginError(
+        f"the plug-in registry was read while it loads{who}: a plug-in module must not read it, nor import "
+        "coopsat.scenarios (which reads it), at import time"
+    )
+
+
+def _load():
+    """Load the registry unless it is loaded: coopsat's plug-in modules, then every entry point
+    of :data:`ENTRY_POINT_GROUP`. Another thread loading it is waited for.
+
+    Raises
+    ------
+    PluginError
+        This thread is loading it (a plug-in module read it at import time); or, once, from the
+        call that loads: one line per failed entry point, joined by "; ". The kinds of a failed
+        entry point are left out; every other kind is registered.
+    BaseException
+        Whatever importing one of coopsat's own modules raised: the registry stays unloaded.
+    """
+    with _LOCK:
+        if _state == "loading":
+            raise _reentered()
+        if _state == "unloaded":
+            _discover(PLUGIN_MODULES)
+
+
+def refresh():
+    """Load the entry points of :data:`ENTRY_POINT_GROUP` installed since the registry loaded
+    (or load the registry, when nothing has).
+
+    Only until the registry is first read: the scenario schema is composed from it when
+    :mod:`coopsat.scenarios.schema` is first imported (loading or validating a scenario), and
+    would not know a later kind; after that, a new kind needs a new Python process.
+
+    Returns
+    -------
+    tuple of Plugin
+        The kinds it registered, role by role (empty when nothing new was installed).
+
+    Raises
+    ------
+    PluginError
+        The registry was read already (one line saying so; nothing is loaded); this thread is
+        loading it; or one line per new entry point that failed, joined by "; " (its kinds are
+        left out, every other kind is registered).
+    """
+    importlib.invalidate_caches()  # the import system caches folder listings: see what was installed since
+    with _LOCK:
+        if _read:
+            raise PluginError(
+                "the plug-in registry cannot be refreshed after it was read (scenarios are validated against the "
+                "kinds registered then): call coopsat.plugins.refresh() before loading any scenario, or start a "
+                "new Python process"
+            )
+        known = {(role, kind) for role, reg in _REGISTRY.items() for kind in reg}
+        if _state == "loaded":
+            _discover(())
+        else:
+            _load()
+        return tuple(p for role, reg in _REGISTRY.items() for kind, p in reg.items() if (role, kind) not in known)
+
+
 def plugins(role):
-    """The registered plug-ins of a role, by kind (registration order)."""
+    """The registered plug-ins of a role, by kind (registration order); the registry loads on
+    the first call (another thread's load is waited for).
+
+    Raises
+    ------
+    PluginError
+        This thread is loading the registry (a plug-in module read it at import time); or, from
+        the call that loads it, one line per failed entry point, joined by "; " (every other
+        kind is registered). What importing one of coopsat's own modules raised propagates, the
+        registry left unloaded.
+    """
     global _read
-    _load()
-    _read = True
-    return dict(_REGISTRY[role])
+    with _LOCK:
+        _load()
+        _read = True
+        return dict(_REGISTRY[role])
 
 
 def plugin_for(role, table):
@@ -433,8 +612,10 @@ def plugin_for(role, table):
 
 
 def all_kinds():
-    """Every registered kind name (any role)."""
+    """Every registered kind name (any role); the registry loads as for :func:`plugins`, which
+    lists what is raised."""
     global _read
-    _load()
-    _read = True
-    return {kind for reg in _REGISTRY.values() for kind in reg}
+    with _LOCK:
+        _load()
+        _read = True
+        return {kind for reg in _REGISTRY.values() for kind in reg}

@@ -52,7 +52,7 @@ if TYPE_CHECKING:  # documentation only: this module imports no JAX
     from coopsat.actuators.pulses import Pulse
     from coopsat.dynamics.plant import PlantState
     from coopsat.network.delivery import Inbox
-    from coopsat.plugins import DesignCheck
+    from coopsat.plugins import DesignCheck, Tunable
 
 Array = Any
 """A JAX array (traced inside the loop)."""
@@ -156,6 +156,15 @@ class Check(Protocol):
         to say). A failed check (``ok=False``) is a warning before the run and is quoted by
         the comparison with published numbers; its ``metrics`` go to metrics.json. Raise
         :class:`~coopsat.plugins.DesignError` for a configuration that must not run."""
+
+
+class Tunables(Protocol):
+    """A plug-in's gradient-tunable fields, :attr:`coopsat.plugins.Plugin.tunables` (``coopsat tune``)."""
+
+    def __call__(self, table: Any, ctx: BuildContext, part: Any) -> Mapping[str, Tunable]:
+        """The continuous fields of ``table`` a gradient may vary (gains, weights), by field
+        name: each a :class:`~coopsat.plugins.Tunable` with its value in this run and how it
+        enters the built ``part`` (pure JAX, so that the run is differentiable)."""
 
 
 @runtime_checkable

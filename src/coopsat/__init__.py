@@ -42,11 +42,11 @@ _PUBLIC = {
     "campaign": "coopsat.api",
     "export": "coopsat.api",
     "ExportError": "coopsat.exports.run",
-    "CoopsatError": "coopsat.errors",
-    "InputError": "coopsat.errors",
-    "SimulationError": "coopsat.errors",
-    "ExternalProcessError": "coopsat.errors",
-    "PlatformError": "coopsat.errors",
+    "CoopsatError": "coopsat.core.errors",
+    "InputError": "coopsat.core.errors",
+    "SimulationError": "coopsat.core.errors",
+    "ExternalProcessError": "coopsat.core.errors",
+    "PlatformError": "coopsat.core.errors",
     "StageError": "coopsat.analysis.stages",
     "StageFailure": "coopsat.analysis.stages",
 }
@@ -75,7 +75,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazi
         validate,
     )
     from coopsat.analysis.stages import StageError, StageFailure
-    from coopsat.errors import CoopsatError, ExternalProcessError, InputError, PlatformError, SimulationError
+    from coopsat.core.errors import CoopsatError, ExternalProcessError, InputError, PlatformError, SimulationError
     from coopsat.exports.run import ExportError
     from coopsat.workflows.pipeline import Result
     from coopsat.scenarios.document import Scenario

@@ -24,12 +24,14 @@ def _document(scenario: ScenarioLike) -> Scenario:
     return scenario if isinstance(scenario, Scenario) else Scenario.load(scenario)
 
 
-def configure(*, float64: bool = True, unrolled_threefry: bool = True, compilation_cache: bool | str = False) -> None:
+def configure(*, float64: bool = True, unrolled_threefry: bool = False, compilation_cache: bool | str = False) -> None:
     """Choose what coopsat changes in this process's JAX (docs/api.md, "Your process").
 
-    Importing coopsat changes nothing. The first build or run turns on ``jax_enable_x64``
-    and, on the CPU, lowers small Threefry hashes unrolled (the same random bits, faster);
-    call this before it to decline either, or to turn on JAX's persistent compilation cache.
+    Importing coopsat changes nothing. The first build or run turns on ``jax_enable_x64``;
+    call this before it to decline that, to opt in to the unrolled lowering of small Threefry
+    hashes on the CPU (the same random bits, faster; on by default only in the processes
+    coopsat owns, the ``coopsat`` command and its workers), or to turn on JAX's persistent
+    compilation cache (at any time).
 
     Parameters
     ----------
@@ -38,11 +40,18 @@ def configure(*, float64: bool = True, unrolled_threefry: bool = True, compilati
         1e-12: without float64, results are float32 and do not meet the documented accuracy.
     unrolled_threefry : bool
         Lower Threefry hashes of at most 16 elements as straight-line code on the CPU
-        (2–3× faster runs that draw random numbers every period; numbers unchanged).
+        (2–3× faster runs that draw random numbers every period; numbers unchanged): replaces
+        JAX's CPU lowering rule of ``threefry2x32`` for the whole process.
     compilation_cache : bool or str
         True: JAX's persistent compilation cache in ``$COOPSAT_JAX_CACHE`` or
         ``~/.cache/coopsat/jax`` (what the ``coopsat`` command uses); a string: that folder.
         Process-wide, and it caches every program, not only slow ones.
+
+    Raises
+    ------
+    coopsat.InputError
+        ``float64`` or ``unrolled_threefry`` other than what the process's first build or run
+        already applied: too late, say so rather than leave compiled programs inconsistent.
     """
     from coopsat.core import runtime
 

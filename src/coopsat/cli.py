@@ -14,7 +14,7 @@ import sys
 import threading
 import warnings
 
-from coopsat.errors import CoopsatError, StageFailedError
+from coopsat.core.errors import CoopsatError, StageFailedError
 
 EXIT_BAD_INPUT = CoopsatError.exit_status
 EXIT_STAGE_FAILED = StageFailedError.exit_status
@@ -546,7 +546,7 @@ def main(argv=None):
         with warnings.catch_warnings():
             warnings.showwarning = _show_notice
             status = args.func(args)
-    except CoopsatError as err:  # every coopsat error, its status by cause (coopsat.errors)
+    except CoopsatError as err:  # every coopsat error, its status by cause (coopsat.core.errors)
         print(f"coopsat: error: {err}", file=sys.stderr)
         return err.exit_status
     except (KeyboardInterrupt, interrupt.Interrupted) as err:

@@ -217,8 +217,13 @@ def test_pair_on_scenarios(scenario):
 def test_configure_and_public_names():
     import jax
 
-    coopsat.configure()
+    coopsat.validate(coopsat.Scenario.load("rigid-body-free").set("sim.t_final_s", 1.0))
+    # The test process is set up as the command's (tests/conftest.py): float64 and the unrolled
+    # lowering are applied; asking for them again changes nothing, asking otherwise is too late.
+    coopsat.configure(unrolled_threefry=True)
     assert jax.config.jax_enable_x64
+    with pytest.raises(coopsat.InputError, match="too late"):
+        coopsat.configure(float64=False, unrolled_threefry=True)
     for name in coopsat.__all__:
         assert getattr(coopsat, name) is not None
     with pytest.raises(AttributeError):

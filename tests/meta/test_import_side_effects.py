@@ -2,8 +2,10 @@
 
 A fresh interpreter with a clean environment records ``os.environ``, every JAX configuration
 value and JAX's lowering rules, imports every module of the package (public or not), and
-records them again. The one documented change (docs/api.md: float64 and the small-Threefry
-lowering at the first build or run) is checked to happen then, not before.
+records them again. The one documented change (docs/api.md: float64 at the first build or run)
+is checked to happen then, not before; the small-Threefry lowering changes only where the user
+opts in (or in a process coopsat owns), and ``configure`` after the first build says it is too
+late.
 """
 
 import json
@@ -43,8 +45,16 @@ PROBE = textwrap.dedent(
     coopsat.validate(coopsat.Scenario.load("rigid-body-free").set("sim.t_final_s", 1.0))
     built = snapshot()
     changed = sorted(k for k in before["config"] if before["config"][k] != built["config"][k])
+    try:
+        coopsat.configure(unrolled_threefry=True)
+        late = None
+    except coopsat.InputError as err:
+        late = str(err)
     print(json.dumps({"modules": len(names), "diff": diff, "x64_after_build": jax.config.jax_enable_x64,
-                      "config_changed_by_build": changed,
+                      "config_changed_by_build": changed, "too_late": late,
+                      # rules replaced (JAX modules imported by the build register new primitives too)
+                      "lowerings_changed_by_build": sorted(k for k in before["lowerings"]
+                                                           if before["lowerings"][k] != built["lowerings"].get(k)),
                       "environ_changed_by_build": sorted(k for k in set(built["environ"]) | set(before["environ"])
                                                          if before["environ"].get(k) != built["environ"].get(k))}))
     """
@@ -66,3 +76,26 @@ def test_importing_every_module_changes_nothing():
     assert report["x64_after_build"] is True
     assert report["config_changed_by_build"] == ["jax_enable_x64"]
     assert report["environ_changed_by_build"] == []
+    assert report["lowerings_changed_by_build"] == []  # a library user's process keeps JAX's lowering
+    assert "too late" in report["too_late"] and "unrolled_threefry=False" in report["too_late"]
+
+
+OPT_IN = textwrap.dedent(
+    """
+    import json
+    from jax._src.interpreters import mlir
+    import coopsat
+
+    before = {f"{plat}:{p}": id(r) for plat, rules in mlir._platform_specific_lowerings.items() for p, r in rules.items()}
+    coopsat.configure(unrolled_threefry=True)
+    coopsat.validate(coopsat.Scenario.load("rigid-body-free").set("sim.t_final_s", 1.0))
+    after = {f"{plat}:{p}": id(r) for plat, rules in mlir._platform_specific_lowerings.items() for p, r in rules.items()}
+    print(json.dumps(sorted(k for k in before if before[k] != after.get(k))))
+    """
+)
+
+
+def test_the_threefry_lowering_changes_where_the_user_opts_in():
+    out = subprocess.run([sys.executable, "-c", OPT_IN], capture_output=True, text=True, env=_clean_env(), timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == ["cpu:threefry2x32"]

@@ -7,8 +7,7 @@ with a :class:`StageError` that carries everything that was computed (and where 
 
 from dataclasses import dataclass
 
-from coopsat.errors import StageFailedError
-from coopsat.core.errors import one_line
+from coopsat.core.errors import StageFailedError, one_line
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 
 SECONDS_PER_DAY = 86400.0
 TT_MINUS_TAI_S = 32.184

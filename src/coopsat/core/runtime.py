@@ -25,23 +25,42 @@ from pathlib import Path
 UNROLLED_THREEFRY_MAX = 16
 """Largest Threefry hash (output elements) lowered unrolled on the CPU (:func:`_unroll_small_threefry`)."""
 
+OWNED_PROCESS_VARIABLE = "COOPSAT_OWNED_PROCESS"
+"""Set to 1 in the environment of the processes coopsat owns (the ``coopsat`` command and the
+workers it starts, :func:`process_environment`): there the small-Threefry lowering is on unless
+declined; in a library user's process it is on only when :func:`set_choices` asks for it."""
+
 _enabled = False
-_choices = {"float64": True, "unrolled_threefry": True}
+_choices = {"float64": True, "unrolled_threefry": None}  # None: on only in a process coopsat owns
+_applied = {}  # what enable() did, once it ran
 
 
-def set_choices(float64=True, unrolled_threefry=True):
-    """Record what :func:`enable` will do (``coopsat.configure``); applies at once if it already ran."""
-    global _enabled
-    _choices.update(float64=bool(float64), unrolled_threefry=bool(unrolled_threefry))
-    _enabled = False
-    enable()
+def set_choices(float64=True, unrolled_threefry=False):
+    """Record what :func:`enable` will do (``coopsat.configure``).
+
+    Raises
+    ------
+    coopsat.core.errors.InputError
+        JAX code already ran in this process with other choices: float64 and the lowering are
+        set at the first build or run and stay (programs compiled under them are cached).
+    """
+    wanted = {"float64": bool(float64), "unrolled_threefry": bool(unrolled_threefry)}
+    if _enabled and wanted != _applied:
+        from coopsat.core.errors import InputError
+
+        raise InputError(
+            f"coopsat.configure({', '.join(f'{k}={v}' for k, v in wanted.items())}) is too late: the first build or run "
+            f"of this process already applied {', '.join(f'{k}={v}' for k, v in _applied.items())}; call configure "
+            "before anything builds or runs a scenario"
+        )
+    _choices.update(wanted)
 
 
 _enable_lock = threading.Lock()
 
 
 def enable():
-    """Turn on float64 and the unrolled small Threefry lowering (unless declined), once.
+    """Turn on float64 and, where chosen, the unrolled small Threefry lowering, once.
 
     Called by every coopsat entry that runs JAX code (scenario build, the engine, the public
     API); idempotent and cheap after the first call.
@@ -54,10 +73,14 @@ def enable():
             return
         import jax
 
+        unrolled = _choices["unrolled_threefry"]
+        if unrolled is None:
+            unrolled = os.environ.get(OWNED_PROCESS_VARIABLE) == "1"
         if _choices["float64"]:
             jax.config.update("jax_enable_x64", True)
-        if _choices["unrolled_threefry"]:
+        if unrolled:
             _unroll_small_threefry()
+        _applied.update(float64=_choices["float64"], unrolled_threefry=unrolled)
         _enabled = True
 
 
@@ -139,8 +162,9 @@ def keep_in_cache(path, data):
 def process_environment(cpu_devices=None, cache=True):
     """Environment variables of a process coopsat starts itself (a campaign's Dask worker):
     ``XLA_FLAGS`` (:func:`_xla_cpu_flags`) and, with ``cache``, the ``JAX_*`` variables of
-    :func:`cache_settings` (JAX reads them when it is imported)."""
-    env = {"XLA_FLAGS": _xla_cpu_flags(cpu_devices)}
+    :func:`cache_settings` (JAX reads them when it is imported); :data:`OWNED_PROCESS_VARIABLE`
+    marks it as coopsat's own."""
+    env = {"XLA_FLAGS": _xla_cpu_flags(cpu_devices), OWNED_PROCESS_VARIABLE: "1"}
     if cache:
         env.update({name.upper(): str(value) for name, value in cache_settings().items()})
     return env

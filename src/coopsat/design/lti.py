@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from coopsat.errors import DesignError
+from coopsat.core.errors import DesignError
 
 
 class FormationDesignError(DesignError):

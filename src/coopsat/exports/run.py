@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 from coopsat.astro.constants import central_body_name
 
 
@@ -81,7 +81,7 @@ class RunStates:
 
 def open_dataset(source):
     """The run's dataset: ``source`` is a run folder (``coopsat run``; its ``result.nc``, read by
-    :func:`coopsat.workflows.folders.read_record` as ``load_run`` reads it, without rebuilding
+    :func:`coopsat.workflows.folders.read_result` as ``load_run`` reads it, without rebuilding
     the scenario: an export needs only the record) or anything with a ``dataset`` (a
     :class:`coopsat.Result`).
 
@@ -92,9 +92,9 @@ def open_dataset(source):
     """
     if hasattr(source, "dataset"):
         return source.dataset
-    from coopsat.workflows.folders import read_record
+    from coopsat.workflows.folders import read_result
 
-    return read_record(source, ExportError)[0]
+    return read_result(source, ExportError)
 
 
 def _instant(iso):

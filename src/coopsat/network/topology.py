@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 
 
 class GraphError(InputError):

@@ -48,7 +48,7 @@ import sys
 import threading
 from dataclasses import dataclass, field, replace
 
-from coopsat.core.errors import one_line
+from coopsat.core.errors import DesignError, PluginError, one_line
 from coopsat.plugins.protocols import (
     Actuator,
     Builder,
@@ -60,6 +60,7 @@ from coopsat.plugins.protocols import (
     NetworkDelivery,
     Sensor,
     Tunables,
+    plugin_problem,
     protocol_problems,
 )
 
@@ -125,16 +126,6 @@ def __getattr__(name):
     value = getattr(importlib.import_module(_LAZY[name]), name)
     globals()[name] = value
     return value
-
-
-class DesignError(ValueError):
-    """A scenario that a plug-in cannot build (the message is one line naming the field)."""
-
-
-class PluginError(Exception):
-    """A plug-in that cannot be registered (one line): two registrations of one role and kind
-    (naming both distributions and modules), an entry point that fails to import or does not
-    name a module, an unknown role. The ``coopsat`` command prints it and exits with status 2."""
 
 
 @dataclass(frozen=True)
@@ -341,37 +332,12 @@ def _add(plugin):
             f"(scenarios are validated against the kinds registered then): declare the module as a "
             f"{ENTRY_POINT_GROUP} entry point, or import it before loading any scenario"
         )
-    problem = _member_problem(plugin)
+    problem = plugin_problem(plugin)
     if problem is not None:
         raise PluginError(f"plug-in {plugin.role} '{plugin.kind}' of {origin}: {problem}")
     plugin = replace(plugin, origin=origin)
     _REGISTRY[plugin.role][plugin.kind] = plugin
     return plugin
-
-
-def _is_table(value):
-    from pydantic import BaseModel
-
-    return isinstance(value, type) and issubclass(value, BaseModel)
-
-
-def _member_problem(plugin):
-    """What is wrong with a :class:`Plugin`'s members, in a few words (None when nothing is):
-    checked at registration, so that a malformed plug-in fails before any scenario runs."""
-    if not _is_table(plugin.table) or "kind" not in plugin.table.model_fields:
-        return "table must be a coopsat.plugins.Table subclass with a 'kind' field"
-    if not callable(plugin.build):
-        return "build must be a function (table, ctx) -> part"
-    if not isinstance(plugin.checks, (tuple, list)) or not all(callable(c) for c in plugin.checks):
-        return "checks must be a tuple of functions (table, ctx) -> DesignCheck or None"
-    if plugin.analysis is not None and not (isinstance(plugin.analysis, str)
-                                            and all(p.isidentifier() for p in plugin.analysis.split("."))):
-        return f"analysis must be the name of a module, not {plugin.analysis!r}"
-    if plugin.tunables is not None and not callable(plugin.tunables):
-        return "tunables must be a function (table, ctx, part) -> dict of name -> Tunable"
-    if plugin.thresholds is not None and not _is_table(plugin.thresholds):
-        return "thresholds must be a coopsat.plugins.Table subclass"
-    return None
 
 
 def _entry_points():

@@ -475,3 +475,29 @@ def protocol_problems(part: Any, role: str) -> list[str]:
                 have = "(…)"
             out.append(f"{name}.{member}{have} cannot be called as {member}({', '.join(wanted)})")
     return out
+
+
+def _is_table(value):
+    from pydantic import BaseModel
+
+    return isinstance(value, type) and issubclass(value, BaseModel)
+
+
+def plugin_problem(plugin: Any) -> str | None:
+    """What is wrong with a :class:`~coopsat.plugins.Plugin`'s members, in a few words (None when
+    nothing is): checked at registration, so that a malformed plug-in fails before any scenario
+    runs."""
+    if not _is_table(plugin.table) or "kind" not in plugin.table.model_fields:
+        return "table must be a coopsat.plugins.Table subclass with a 'kind' field"
+    if not callable(plugin.build):
+        return "build must be a function (table, ctx) -> part"
+    if not isinstance(plugin.checks, (tuple, list)) or not all(callable(c) for c in plugin.checks):
+        return "checks must be a tuple of functions (table, ctx) -> DesignCheck or None"
+    if plugin.analysis is not None and not (isinstance(plugin.analysis, str)
+                                            and all(p.isidentifier() for p in plugin.analysis.split("."))):
+        return f"analysis must be the name of a module, not {plugin.analysis!r}"
+    if plugin.tunables is not None and not callable(plugin.tunables):
+        return "tunables must be a function (table, ctx, part) -> dict of name -> Tunable"
+    if plugin.thresholds is not None and not _is_table(plugin.thresholds):
+        return "thresholds must be a coopsat.plugins.Table subclass"
+    return None

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.errors import PlatformError
+from coopsat.core.errors import PlatformError
 
 MAX_SERIES_POINTS = 2000
 """Most samples drawn per time series: a long record is decimated by a whole stride (hover

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from coopsat.errors import CoopsatWarning
+from coopsat.core.errors import CoopsatWarning
 from coopsat.network.graphs import graph_adjacency
 from coopsat.network.topology import GraphError
 from coopsat.plugins import BuildContext, DesignCheck, DesignError, plugin_for

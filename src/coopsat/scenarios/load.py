@@ -16,7 +16,7 @@ from pathlib import Path
 import tomli_w
 from pydantic import ValidationError
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 from coopsat.scenarios import hints
 from coopsat.scenarios.catalogue import BUNDLED_PACKAGE, bundled_names  # noqa: F401  (public here too)
 from coopsat.scenarios.schema import Scenario

@@ -20,7 +20,7 @@ import math
 import time
 from dataclasses import dataclass, replace
 
-from coopsat.errors import SimulationError
+from coopsat.core.errors import SimulationError
 from coopsat.core import runtime
 from coopsat.core.progress import progress_bar
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 from coopsat.analysis.tradeoff import formation_fuel_bound_ns, fuel_on_front, matched_saving, pareto_front
 from coopsat.workflows.folders import atomic_folder, check_folder
 

@@ -148,18 +148,16 @@ def atomic_folder(out_dir, error):
         raise
 
 
-def read_record(run_dir, error):
-    """A run folder's record and the scenario it ran: (``result.nc`` as a Dataset, the
-    :class:`~coopsat.scenarios.document.Scenario` of its resolved TOML); ``error`` (an exception
-    class) names a folder without a readable record in one line."""
+def read_result(run_dir, error):
+    """A run folder's record, ``result.nc``, as a loaded Dataset: the one reader of run folders
+    (``load_run``, ``plot`` and ``export`` all come through it); ``error`` (an exception class)
+    names a folder without a readable record in one line."""
     import xarray as xr
 
-    from coopsat.scenarios.document import Scenario as Document
-
-    if not (Path(run_dir) / "result.nc").is_file():
+    path = Path(run_dir) / "result.nc"
+    if not path.is_file():
         raise error(f"{run_dir}: not a run folder (no result.nc; write one with coopsat run)")
     try:
-        ds = xr.load_dataset(Path(run_dir) / "result.nc", engine="h5netcdf")
-        return ds, Document.from_toml(ds.attrs["scenario_toml"])
-    except (OSError, ValueError, KeyError) as err:
-        raise error(f"{run_dir}: no run record to read (result.nc with its scenario_toml): {err}") from None
+        return xr.load_dataset(path, engine="h5netcdf")
+    except (OSError, ValueError) as err:
+        raise error(f"{path}: cannot be read as a run's result ({err})") from None

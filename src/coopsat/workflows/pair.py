@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 from coopsat.analysis.papers import member, paper_modules
 from coopsat.analysis.series import run_series
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready

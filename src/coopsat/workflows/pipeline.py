@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 
 import coopsat
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 from coopsat.workflows import interrupt
 from coopsat.analysis.compare import compare_published, comparison_markdown
 from coopsat.analysis.metrics import attitude_moves, run_metrics
 from coopsat.analysis.papers import explainers, member, paper_metrics, paper_modules, paper_series, source_of
 from coopsat.analysis.stages import StageError, guarded
-from coopsat.workflows.folders import atomic_folder, check_folder, json_ready, read_record, write_netcdf
+from coopsat.workflows.folders import atomic_folder, check_folder, json_ready, read_result, write_netcdf
 from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
 from coopsat.scenarios.run_length import check_run_length
 from coopsat.scenarios.load import ScenarioError, resolved_toml
@@ -325,6 +325,19 @@ def _save_figures(built, ds, folder, failures):
 
 
 REPORT_FILE = "report.html"
+
+
+def read_record(run_dir, error):
+    """A run folder's record and the scenario it ran: (``result.nc`` as a Dataset, the
+    :class:`~coopsat.scenarios.document.Scenario` of its resolved TOML); ``error`` (an exception
+    class) names a folder without a readable record in one line."""
+    from coopsat.scenarios.document import Scenario as Document
+
+    ds = read_result(run_dir, error)
+    try:
+        return ds, Document.from_toml(ds.attrs["scenario_toml"])
+    except (ValueError, KeyError) as err:
+        raise error(f"{run_dir}: no scenario to read in result.nc (its scenario_toml): {err}") from None
 
 
 def load_run(run_dir):

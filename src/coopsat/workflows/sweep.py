@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 from coopsat.workflows import interrupt
 from coopsat.analysis.papers import paper_series
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready

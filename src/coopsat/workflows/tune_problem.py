@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 from coopsat.analysis.surrogates import surrogates
 from coopsat.plugins import plugin_for
 from coopsat.scenarios.build import scenario_tables

@@ -41,7 +41,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import NamedTuple
 
-from coopsat.errors import CoopsatWarning, PlatformError
+from coopsat.core.errors import CoopsatWarning, PlatformError
 
 ENV = "COOPSAT_NATIVE"
 """Environment variable of the switch: ``0`` (XLA only), ``1`` (kernels, or an error), ``auto``."""

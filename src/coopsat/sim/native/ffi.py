@@ -25,7 +25,7 @@ from numba import carray, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 
 HANDLER_SIGNATURE = types.int64(types.CPointer(types.int64))
 """``XLA_FFI_Error* (XLA_FFI_CallFrame*)``: the frame read as 64-bit words, the error pointer

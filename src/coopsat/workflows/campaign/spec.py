@@ -29,7 +29,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from coopsat.errors import InputError
+from coopsat.core.errors import InputError
 from coopsat.scenarios.load import ScenarioError, clip_echo, format_validation_error, load_scenario, resolved_toml
 from coopsat.workflows.campaign.catalogue import bundled_names as bundled_campaign_names
 from coopsat.workflows.campaign.catalogue import bundled_path

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from coopsat.errors import ExternalProcessError, InputError
+from coopsat.core.errors import ExternalProcessError, InputError
 from coopsat.workflows.sil import protocol
 
 MAX_FRAME_BYTES = 1 << 20

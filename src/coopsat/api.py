@@ -103,8 +103,7 @@ def validate(scenario: ScenarioLike) -> Validation:
 
     doc = _document(scenario)
     built = prepare(doc.model)
-    checks = {c.name: c for c in built.checks.values()}
-    return Validation(doc, checks, list(built.warnings), dict(built.design_metrics), estimated_run_s(built), built)
+    return Validation(doc, built.named_checks, list(built.warnings), dict(built.design_metrics), estimated_run_s(built), built)
 
 
 def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path | None = None, figures: bool = False,
@@ -304,8 +303,7 @@ def run_batch(scenarios: Sequence[ScenarioLike], *, progress: bool = False, nati
     results = []
     for doc, built, ds in zip(docs, builds, datasets):
         metrics, _ = analyse(built, ds, compare=False)
-        checks = {c.name: c for c in built.checks.values()}
-        results.append(Result(doc, ds, metrics, [], checks, list(built.warnings), 0.0, 0.0, built))
+        results.append(Result.from_built(doc, built, ds, metrics))
     return Batch(results, compile_s, run_s, len(group_runs(builds)))
 
 

@@ -68,6 +68,11 @@ class Built:
     warnings: list
 
     @property
+    def named_checks(self):
+        """The checks keyed by their own names (``"sampled-data"``), as results and reports show them."""
+        return {c.name: c for c in self.checks.values()}
+
+    @property
     def design_metrics(self):
         """Numbers known before the run, from every check (control period included)."""
         m = {"control_period_s": self.scenario.control_period_s}

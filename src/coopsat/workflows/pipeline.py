@@ -69,6 +69,13 @@ class Result:
     their numbers missing from ``metrics``/``comparison`` (:func:`run` raises
     :class:`~coopsat.analysis.stages.StageError` with this result)."""
 
+    @classmethod
+    def from_built(cls, scenario, built, dataset, metrics, comparison=(), *, compile_s=0.0, run_s=0.0, failures=()):
+        """The one way a result is made: the checks and warnings come from ``built`` (a
+        :class:`~coopsat.scenarios.build.Built`), the rest as named."""
+        return cls(scenario, dataset, metrics, list(comparison), built.named_checks, list(built.warnings), compile_s,
+                   run_s, built, tuple(failures))
+
     def save(self, out_dir, *, figures=False, report=True):
         """Write the run folder ``coopsat run`` writes (result.nc, metrics.json,
         comparison.{md,json}, report.html, run.json; the PNG figures when ``figures``),
@@ -363,9 +370,8 @@ def load_run(run_dir):
     except (OSError, ValueError) as err:
         raise RunFolderError(f"{run_dir}: cannot read the run folder ({err})") from None
     built = prepare(doc.model, check_published=False)
-    checks = {c.name: c for c in built.checks.values()}
-    return Result(doc, ds, metrics, rows, checks, list(built.warnings), float(ds.attrs.get("compile_time_s", 0.0)),
-                  float(ds.attrs.get("run_time_s", 0.0)), built)
+    return Result.from_built(doc, built, ds, metrics, rows, compile_s=float(ds.attrs.get("compile_time_s", 0.0)),
+                             run_s=float(ds.attrs.get("run_time_s", 0.0)))
 
 
 def run_figures(built, ds):
@@ -492,8 +498,7 @@ def analysed_result(doc, built, ds, out, failures):
         Some stage failed: the error carries the result.
     """
     metrics, rows = analyse(built, ds, failures=failures)
-    checks = {c.name: c for c in built.checks.values()}
-    result = Result(doc, ds, metrics, rows, checks, list(built.warnings), out.compile_s, out.run_s, built, tuple(failures))
+    result = Result.from_built(doc, built, ds, metrics, rows, compile_s=out.compile_s, run_s=out.run_s, failures=failures)
     if failures:
         raise StageError(failures, result)
     return result

@@ -148,7 +148,8 @@ def run(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
 
 
 def sil(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path | None = None, figures: bool = False,
-        report: bool = True, kill: Sequence[str] = (), pause: Sequence[str] = (), externals: Mapping[str, str] | None = None,
+        report: bool = True, kill: Sequence[tuple[str, float]] = (), pause: Sequence[tuple[str, float, float]] = (),
+        externals: Mapping[str, str] | None = None,
         fault_command: str | None = None, realtime: float | None = None, answer_s: float = 10.0,
         handshake_s: float = 120.0) -> Result:
     """Run one scenario as software in the loop (``coopsat sil``, docs/sil.md): one flight-software
@@ -159,10 +160,10 @@ def sil(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
     ----------
     scenario, seed, out_dir, figures, report
         As :func:`run`.
-    kill : sequence of str
-        ``"sat3@10"``: kill that spacecraft's flight software at t = 10 s.
-    pause : sequence of str
-        ``"sat3@120:30"``: stop it at t = 120 s for 30 s of simulated time.
+    kill : sequence of (str, float)
+        ``("sat3", 10.0)``: kill that spacecraft's flight software at t = 10 s.
+    pause : sequence of (str, float, float)
+        ``("sat3", 120.0, 30.0)``: stop it at t = 120 s for 30 s of simulated time.
     externals : mapping of str to str, optional
         ``{"sat2": "python law3.py"}``: that spacecraft's flight software is this command (it
         speaks the protocol of docs/sil.md) instead of coopsat's own.
@@ -178,9 +179,11 @@ def sil(scenario: ScenarioLike, *, seed: int | None = None, out_dir: str | Path 
 
     Raises
     ------
-    coopsat.workflows.sil.processes.SILError
-        A controller that cannot be split per spacecraft, a fault naming an unknown spacecraft
-        or a time outside the run, a process that does not start or answer in time (one line).
+    coopsat.workflows.sil.schema.SILSetupError
+        A controller that cannot be split per spacecraft, a fault record naming an unknown
+        spacecraft or a time outside the run, an external command that cannot start (one line).
+    coopsat.workflows.sil.schema.SILError
+        A process that does not start, answer in time or keep the protocol (one line).
     StageError
         As :func:`run`.
     """

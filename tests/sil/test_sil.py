@@ -67,7 +67,7 @@ def test_killed_and_paused_flight_software_go_silent_as_lost_links():
     those spacecraft's links removed while they are silent (their own law then hears nobody:
     zero torque)."""
     s = _short()
-    ours = sil(s.set("sil.fault_command", "zero"), kill=["sat3@1.5"], pause=["sat1@0.3:0.4"])
+    ours = sil(s.set("sil.fault_command", "zero"), kill=[("sat3", 1.5)], pause=[("sat1", 0.3, 0.4)])
     assert ours.dataset.attrs["sil_fault_command"] == "zero"
     ref = coopsat.run(s.set("network.require_spanning_tree", False).set("network.switches", [{"t_s": 0.3, **_without("sat1")}, {"t_s": 0.7, "kind": "edges", "edges": RING},
                                                   {"t_s": 1.5, **_without("sat3")}]))
@@ -118,7 +118,7 @@ def test_a_kill_on_the_delayed_network_drops_its_links_and_messages_in_flight():
     s = (coopsat.Scenario.load("delay-designed").set("sim.t_final_s", 6.0).set("network.edges", edges)
          .set("network.delivery.relay", False).set("network.delivery.on_loss", "drop")
          .set("network.require_spanning_tree", False).set("sil.fault_command", "zero"))
-    ours = sil(s, kill=["v2@3"]).dataset
+    ours = sil(s, kill=[("v2", 3.0)]).dataset
     ref = coopsat.run(s.set("network.switches", [{"t_s": 3.0, "kind": "edges", "directed": True, "edges": edges[:3]}])).dataset
     assert len(np.unique(ref["network_tau_periods"].values)) > 1
     before = ref.time.values < 3.0
@@ -189,10 +189,12 @@ def test_no_process_remains_after_a_stop(tmp_path, how):
 
 
 @pytest.mark.parametrize("kwargs, says", [
-    ({"kill": ["sat9@1"]}, "--kill sat9@1: no spacecraft 'sat9'"),
-    ({"kill": ["sat3@5"]}, "--kill sat3@5: t = 5 s is outside the run (0 to 2 s)"),
-    ({"pause": ["sat3@1"]}, "--pause sat3@1: give NAME@T_S:DURATION_S"),
-    ({"externals": {"sat2": "no-such-program-xyz"}}, "--external sat2: cannot start 'no-such-program-xyz'"),
+    ({"kill": [("sat9", 1.0)]}, "kill ('sat9', 1.0): no spacecraft 'sat9'"),
+    ({"kill": [("sat3", 5.0)]}, "kill ('sat3', 5.0): t = 5 s is outside the run (0 to 2 s)"),
+    ({"pause": [("sat3", 1.0)]}, "pause ('sat3', 1.0): give (name, t_s, duration_s)"),
+    ({"kill": ["sat3@1"]}, "kill 'sat3@1': give (name, t_s)"),  # the command line's text is the command's to parse
+    ({"pause": [("sat3", 1.0, 0.0)]}, "pause ('sat3', 1.0, 0.0): the pause must last more than 0 s"),
+    ({"externals": {"sat2": "no-such-program-xyz"}}, "external command of sat2: cannot start 'no-such-program-xyz'"),
 ])
 def test_bad_input_is_one_line_before_anything_starts(kwargs, says):
     with pytest.raises(SILSetupError, match="^" + says.replace("(", r"\(").replace(")", r"\)")):
@@ -236,7 +238,7 @@ def test_a_spacecraft_silent_from_the_start_flies_free():
     law's broadcast in zeros stands in its slot, its links dropped) and it flies uncontrolled,
     as the compiled loop with its edges removed from the start."""
     s = _short().set("network.require_spanning_tree", False).set("sil.fault_command", "zero")
-    ours = sil(s, kill=["sat3@0"])
+    ours = sil(s, kill=[("sat3", 0.0)])
     ref = coopsat.run(s.set("network", {**_without("sat3"), "require_spanning_tree": False}))
     for v in ("q", "omega", "torque"):
         np.testing.assert_allclose(ours.dataset[v].values, ref.dataset[v].values, rtol=0, atol=1e-12, err_msg=v)
@@ -263,8 +265,8 @@ def test_the_command_line_says_bad_input_in_one_line(tmp_path):
                           "sim.t_final_s=2", "--kill", "sat7@1", "--out", str(tmp_path / "D")],
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 2
-    assert out.stderr.strip().splitlines() == ["coopsat: error: --kill sat7@1: no spacecraft 'sat7' (spacecraft: sat1, sat2, "
-                                               "sat3, sat4, sat5)"]
+    assert out.stderr.strip().splitlines() == ["coopsat: error: kill ('sat7', 1.0): no spacecraft 'sat7' (spacecraft: sat1, "
+                                               "sat2, sat3, sat4, sat5)"]
 
 
 BAD_REPLY = Path(__file__).with_name("bad_reply.py")

@@ -295,9 +295,9 @@ def external_command(text, name):
     try:
         argv = shlex.split(text)
     except ValueError as err:  # an unclosed quote
-        raise SILSetupError(f"--external {name}: {err} in {text!r}") from None
+        raise SILSetupError(f"external command of {name}: {err} in {text!r}") from None
     if not argv:
-        raise SILSetupError(f"--external {name}: empty command")
+        raise SILSetupError(f"external command of {name}: empty")
     if shutil.which(argv[0]) is None:
-        raise SILSetupError(f"--external {name}: cannot start {argv[0]!r} (not found or not executable)")
+        raise SILSetupError(f"external command of {name}: cannot start {argv[0]!r} (not found or not executable)")
     return argv

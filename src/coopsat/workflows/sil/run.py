@@ -44,37 +44,56 @@ def per_spacecraft_form(controller, kind):
     raise SILSetupError(f"controller kind '{kind}' cannot be split per spacecraft: {why}")
 
 
-def parse_fault(text, kind, names, t_final_s):
-    """``NAME@T_S`` (kind "kill") or ``NAME@T_S:DURATION_S`` (kind "pause") as a :class:`Fault`.
+def parse_fault(text, kind):
+    """The command line's ``NAME@T_S`` (``--kill``) or ``NAME@T_S:DURATION_S`` (``--pause``) as
+    the record :func:`sil` takes: ``(name, t_s)`` or ``(name, t_s, duration_s)``.
 
     Raises
     ------
     SILSetupError
-        Malformed, an unknown spacecraft, or a time outside the run.
+        Malformed (naming the option as given).
     """
     option = f"--{kind} {text}"
     m = _FAULT.match(text.strip())
     if m is None or (kind == "kill") != (m["d"] is None):
         form = "NAME@T_S" if kind == "kill" else "NAME@T_S:DURATION_S"
         raise SILSetupError(f"{option}: give {form} (e.g. {'sat3@10' if kind == 'kill' else 'sat3@120:30'})")
-    if m["name"] not in names:
-        raise SILSetupError(f"{option}: no spacecraft '{m['name']}' (spacecraft: {', '.join(names)})")
     try:
-        t_s, duration_s = float(m["t"]), float(m["d"] or 0.0)
+        times = (float(m["t"]),) if kind == "kill" else (float(m["t"]), float(m["d"]))
     except ValueError:
         raise SILSetupError(f"{option}: times are numbers of seconds") from None
+    return (m["name"], *times)
+
+
+def check_fault(kind, record, names, t_final_s):
+    """A kill ``(name, t_s)`` or pause ``(name, t_s, duration_s)`` record as a :class:`Fault`.
+
+    Raises
+    ------
+    SILSetupError
+        A record of the wrong shape, an unknown spacecraft, a time outside the run, a pause of
+        no duration (one line naming the record).
+    """
+    size = 2 if kind == "kill" else 3
+    what = f"{kind} {tuple(record) if isinstance(record, (tuple, list)) else record!r}"
+    if isinstance(record, str) or not isinstance(record, (tuple, list)) or len(record) != size:
+        form = "(name, t_s)" if kind == "kill" else "(name, t_s, duration_s)"
+        raise SILSetupError(f"{what}: give {form}")
+    name, t_s, duration_s = (*record, 0.0)[:3]
+    if name not in names:
+        raise SILSetupError(f"{what}: no spacecraft '{name}' (spacecraft: {', '.join(names)})")
     if not 0.0 <= t_s < t_final_s:
-        raise SILSetupError(f"{option}: t = {t_s:g} s is outside the run (0 to {t_final_s:g} s)")
+        raise SILSetupError(f"{what}: t = {t_s:g} s is outside the run (0 to {t_final_s:g} s)")
     if kind == "pause" and not duration_s > 0.0:
-        raise SILSetupError(f"{option}: the pause must last more than 0 s")
-    return Fault(kind, m["name"], t_s, duration_s)
+        raise SILSetupError(f"{what}: the pause must last more than 0 s")
+    return Fault(kind, name, float(t_s), float(duration_s))
 
 
 def _commands(names, externals):
     """Each spacecraft's flight-software command: coopsat's own host, or the external one."""
     unknown = [n for n in externals if n not in names]
     if unknown:
-        raise SILSetupError(f"--external {unknown[0]}: no such spacecraft (spacecraft: {', '.join(names)})")
+        raise SILSetupError(f"external command of {unknown[0]}: no such spacecraft (spacecraft: {', '.join(names)})")
     return {n: external_command(externals[n], n) if n in externals else builtin_command() for n in names}
 
 
@@ -105,7 +124,8 @@ def sil_command(args, out, err):
     on_start = None if args.quiet else (
         lambda pids: err("sil: flight software " + ", ".join(f"{n} pid {p}" for n, p in pids.items())))
     result = run_and_save(
-        lambda: sil(args.scenario, overrides=args.set, kill=args.kill, pause=args.pause,
+        lambda: sil(args.scenario, overrides=args.set, kill=[parse_fault(f, "kill") for f in args.kill],
+                    pause=[parse_fault(f, "pause") for f in args.pause],
                     externals=parse_externals(args.external), fault_command=args.fault_command, realtime=args.realtime,
                     answer_s=args.answer_timeout, handshake_s=args.start_timeout,
                     on_warning=lambda note: err(f"warning: {note}"), on_start=on_start),
@@ -177,13 +197,13 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
     names = list(built.names)
     controller = per_spacecraft_form(built.system.controller, built.scenario.controller.kind)
     t_final_s = built.scenario.sim.t_final_s
-    faults = [parse_fault(f, "kill", names, t_final_s) for f in kill] + [parse_fault(f, "pause", names, t_final_s)
+    faults = [check_fault("kill", f, names, t_final_s) for f in kill] + [check_fault("pause", f, names, t_final_s)
                                                                            for f in pause]
     fault_command = fault_command or built.scenario.sil.fault_command
     if fault_command not in ("hold", "zero"):
         raise SILSetupError(f"fault command '{fault_command}': give hold or zero")
     if realtime is not None and not realtime > 0:
-        raise SILSetupError(f"--realtime {realtime:g}: give a factor above 0")
+        raise SILSetupError(f"realtime {realtime:g}: give a factor above 0")
     commands = _commands(names, dict(externals or {}))
     for note in built.warnings:
         if on_warning is not None:

@@ -361,7 +361,8 @@ def pair(a: ScenarioLike, b: ScenarioLike, *, seeds: int = 3, progress: bool = F
     return run_pair(_document(a), _document(b), n_seeds=seeds, progress=progress)
 
 
-def tune(scenario: ScenarioLike, objective: str, params: Sequence[str], *, constraints: Sequence[str] = (), starts: int = 1,
+def tune(scenario: ScenarioLike, objective: str, params: Sequence[str], *, constraints: Mapping[str, float] | None = None,
+         starts: int = 1,
          polish: int = 1, max_iter: int = 50, seed: int = 0, report: Callable[[str], None] | None = None):
     """Tune gains by gradient through the whole closed loop, then re-run exactly (``coopsat tune``).
 
@@ -372,8 +373,9 @@ def tune(scenario: ScenarioLike, objective: str, params: Sequence[str], *, const
         Metric to minimise.
     params : sequence of str
         Field paths (``"controller.alpha"``).
-    constraints : sequence of str
-        ``"METRIC<=VALUE"`` each.
+    constraints : mapping of str -> float, optional
+        ``{"sync_time_s": 300.0}``: each metric must end at most its bound (the command line's
+        ``--constraint 'sync_time_s<=300'``).
     starts, polish, max_iter, seed
         As ``coopsat tune``'s options (docs/tuning.md).
     report : callable, optional
@@ -385,7 +387,7 @@ def tune(scenario: ScenarioLike, objective: str, params: Sequence[str], *, const
     """
     from coopsat.workflows.tune import tune as _tune
 
-    return _tune(_document(scenario), objective, constraints=tuple(constraints), params=tuple(params), starts=starts,
+    return _tune(_document(scenario), objective, constraints=dict(constraints or {}), params=tuple(params), starts=starts,
                  polish=polish, max_iter=max_iter, seed=seed, report=report or (lambda line: None))
 
 

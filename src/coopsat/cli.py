@@ -224,13 +224,14 @@ def _cmd_pair(args):
 def _cmd_tune(args):
     from pathlib import Path
 
-    from coopsat.workflows.tune import MARKER, TuneError, check_folder, report_lines, tune, write_tune_folder
+    from coopsat.workflows.tune import MARKER, TuneError, check_folder, parse_constraint, report_lines, tune, write_tune_folder
 
     out = Path(args.out) if args.out else None
     if out is not None:
         check_folder(out, MARKER, "tune", TuneError)  # before minutes of work, not after
     report = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
-    result = tune(args.scenario, args.objective, args.constraint, args.params, overrides=args.set, starts=args.starts,
+    constraints = [parse_constraint(c) for c in args.constraint]
+    result = tune(args.scenario, args.objective, constraints, args.params, overrides=args.set, starts=args.starts,
                   spread=args.spread, max_iter=args.max_iter, seed=args.seed, polish=args.polish, report=report)
     _print(report_lines(result))
     if out is not None:

@@ -24,6 +24,7 @@ the differentiable problem is :mod:`coopsat.workflows.tune_problem` and the mini
 import json
 import re
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -64,7 +65,7 @@ class Spec:
 
 
 def parse_constraint(text):
-    """``METRIC<=VALUE`` → :class:`Spec`."""
+    """The command line's ``METRIC<=VALUE`` → :class:`Spec` (worded with ``--constraint``)."""
     m = re.fullmatch(r"\s*([A-Za-z0-9_]+)\s*<=\s*([-+0-9.eE]+)\s*", text)
     if not m:
         raise TuneError(f"--constraint {clip_echo(text)}: expected METRIC<=VALUE (e.g. settling_time_s<=4000)")
@@ -75,6 +76,25 @@ def parse_constraint(text):
     if not np.isfinite(bound):
         raise TuneError(f"--constraint {clip_echo(text)}: the bound must be finite")
     return Spec(m.group(1), bound)
+
+
+def constraint_specs(constraints):
+    """``{metric: bound}`` (each ``metric <= bound``) or a sequence of :class:`Spec` as a list of
+    specs.
+
+    Raises
+    ------
+    TuneError
+        A bound that is not a finite number (one line naming the metric).
+    """
+    pairs = constraints.items() if isinstance(constraints, Mapping) else ((c.metric, c.bound) for c in constraints)
+    specs = []
+    for metric, bound in pairs:
+        if isinstance(bound, bool) or not isinstance(bound, (int, float)) or not np.isfinite(bound):
+            raise TuneError(f"constraint {clip_echo(str(metric))} <= {clip_echo(repr(bound))}: the bound must be a finite "
+                            "number")
+        specs.append(Spec(str(metric), float(bound)))
+    return specs
 
 
 @dataclass
@@ -134,8 +154,8 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
         Bundled scenario name or path.
     objective : str
         Metric to minimise.
-    constraints : sequence of str
-        ``METRIC<=VALUE`` each.
+    constraints : mapping of str -> float, or sequence of Spec
+        Each ``metric <= bound`` (:func:`constraint_specs`).
     params : sequence of str
         Field paths (``controller.alpha``).
     overrides : sequence of str
@@ -161,7 +181,7 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
     """
     _check_options(starts, max_iter, spread)
     obj_spec = Spec(objective)
-    cons_specs = [parse_constraint(c) for c in constraints]
+    cons_specs = constraint_specs(constraints)
     built = prepare(load_scenario(ref, overrides))
     par = resolve_params(built, params)
     notes = smooth_system(built.system)[1]

@@ -197,7 +197,7 @@ def test_tuned_consensus_gains_meet_the_constraint_on_the_exact_loop():
     # SLSQP steps reach α ≈ 0.67, β ≈ 3.14, which synchronise at 202.5 s (measured).
     spec = Spec("sync_time_s", 300.0)
     result = tune(
-        "consensus-sync-a-saturated", "sync_time_s", [str(spec)], ["controller.alpha", "controller.beta"],
+        "consensus-sync-a-saturated", "sync_time_s", {"sync_time_s": 300.0}, ["controller.alpha", "controller.beta"],
         overrides=["sim.t_final_s=400"], max_iter=4, report=lambda line: None,
     )
     assert result.constraints == [spec]
@@ -230,6 +230,15 @@ def test_cli_unknown_param_names_the_field_and_the_tunable_ones(capsys):
     line = _bad(capsys, ["--objective", "sync_time_s", "--params", "controller.gamma"])
     assert "controller.gamma" in line
     assert "controller.alpha" in line and "controller.beta" in line
+
+
+@pytest.mark.parametrize("bound", [float("inf"), "300", True])
+def test_a_constraint_bound_must_be_a_finite_number(bound):
+    from coopsat.workflows.tune import TuneError, constraint_specs
+
+    with pytest.raises(TuneError, match="^constraint sync_time_s <= .*: the bound must be a finite number$"):
+        constraint_specs({"sync_time_s": bound})
+    assert constraint_specs({"sync_time_s": 300}) == [Spec("sync_time_s", 300.0)]
 
 
 def test_cli_constraint_without_le(capsys):

@@ -310,13 +310,6 @@ def run_batch(scenarios: Sequence[ScenarioLike], *, progress: bool = False, nati
     return Batch(results, compile_s, run_s, len(group_runs(builds)))
 
 
-def _toml_value(value: Any) -> str:
-    """A Python value as the TOML text ``--vary`` takes (floats round-trip exactly)."""
-    import tomli_w
-
-    return tomli_w.dumps({"v": value}).split("=", 1)[1].strip()
-
-
 def sweep(scenario: ScenarioLike, vary: Mapping[str, Sequence[Any]], *, seeds: int = 1, metrics: Sequence[str] | None = None,
           out_dir: str | Path | None = None, plots: Sequence[tuple[str, str]] = (), progress: bool = False):
     """Run a scenario over values of fields, zipped (``coopsat sweep``).
@@ -343,8 +336,7 @@ def sweep(scenario: ScenarioLike, vary: Mapping[str, Sequence[Any]], *, seeds: i
     """
     from coopsat.workflows.sweep import run_sweep
 
-    varies = [(path, [_toml_value(v) for v in values]) for path, values in vary.items()]
-    return run_sweep(_document(scenario), varies, n_seeds=seeds, metrics=list(metrics) if metrics else None,
+    return run_sweep(_document(scenario), [(path, list(values)) for path, values in vary.items()], n_seeds=seeds, metrics=list(metrics) if metrics else None,
                      out_dir=out_dir, plots=list(plots), progress=progress)
 
 

@@ -111,7 +111,7 @@ BAD = [
     (["--vary", "controller.alpha=1,2", "--metrics", "final_rate_spread,sync_time_s"], "unknown metric 'final_rate_spread'"),
     (["--vary", "controller.alpha=1,2", "--plot", "controller.alpha:no_such_metric"], "unknown metric 'no_such_metric'"),
     (["--vary", "controller.alpha=1,2", "--plot", "controller.alpha"], "expected X:Y"),
-    (["--vary", "controller.alpha=1,2", "--seeds", "0"], "--seeds 0"),
+    (["--vary", "controller.alpha=1,2", "--seeds", "0"], "seeds 0: must be at least 1"),
 ]
 
 
@@ -127,7 +127,7 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(capsys, tmp_path, ar
 
 def test_plot_needs_an_out_folder(capsys):
     status, _, err = run_main(capsys, ["sweep", SCENARIO, "--vary", "controller.alpha=1,2", "--plot", "controller.alpha:sat1_impulse_nms"])
-    assert status == EXIT_BAD_INPUT and "needs --out" in err
+    assert status == EXIT_BAD_INPUT and "need a folder to receive the figures (out_dir, the command's --out)" in err
 
 
 def test_an_existing_folder_that_is_not_a_sweep_is_refused(capsys, tmp_path):

@@ -92,8 +92,9 @@ def parse_vary(spec):
 
     Returns
     -------
-    (field, texts)
-        The field path and each value's text (a ``--set`` value: TOML, else a bare string).
+    (field, values)
+        The field path and its values, each parsed as a ``--set`` value (TOML, else a bare
+        string), as :func:`run_sweep` takes them.
 
     Raises
     ------
@@ -109,37 +110,48 @@ def parse_vary(spec):
         raise SweepError(f"--vary {clip_echo(field)}: no values (expected {clip_echo(field)}=V1,V2,...)")
     if not all(texts):
         raise SweepError(f"--vary {clip_echo(spec)}: an empty value between commas")
-    return field, texts
+    return field, [parse_value(t) for t in texts]
+
+
+def value_text(value):
+    """A varied value as the table and the CSV show it: its TOML text (``0.5``, ``"hub"``,
+    ``[1.0, 2.0]``; floats round-trip exactly)."""
+    import tomli_w
+
+    return tomli_w.dumps({"v": value}).split("=", 1)[1].strip()
 
 
 def zip_points(varies):
-    """Zip parsed ``--vary`` lists into points.
+    """Zip the varied fields' values into points.
 
     Parameters
     ----------
-    varies : list of (field, texts)
+    varies : list of (field, values)
 
     Returns
     -------
-    list of list of str
-        Per point, one ``field=value`` override per varied field.
+    list of dict
+        Per point, ``{field: value}``.
 
     Raises
     ------
     SweepError
-        No list, a field given twice, or lists of different lengths.
+        No field, a field given twice, a field with no values, or lists of different lengths.
     """
     if not varies:
-        raise SweepError("--vary: give at least one FIELD=V1,V2,...")
+        raise SweepError("vary: give at least one field and its values")
     fields = [f for f, _ in varies]
     twice = sorted({f for f in fields if fields.count(f) > 1})
     if twice:
-        raise SweepError(f"--vary {clip_echo(twice[0])}: given twice; give each field once")
-    lengths = {len(t) for _, t in varies}
+        raise SweepError(f"vary {clip_echo(twice[0])}: given twice; give each field once")
+    empty = [f for f, v in varies if not len(v)]
+    if empty:
+        raise SweepError(f"vary {clip_echo(empty[0])}: no values")
+    lengths = {len(v) for _, v in varies}
     if len(lengths) > 1:
-        counts = ", ".join(f"{clip_echo(f)}: {len(t)}" for f, t in varies)
-        raise SweepError(f"--vary: zipped lists differ in length ({counts}); give each --vary the same number of values")
-    return [[f"{f}={t[k]}" for f, t in varies] for k in range(lengths.pop())]
+        counts = ", ".join(f"{clip_echo(f)}: {len(v)}" for f, v in varies)
+        raise SweepError(f"vary: the value lists differ in length ({counts}); give every field the same number of values")
+    return [{f: v[k] for f, v in varies} for k in range(lengths.pop())]
 
 
 def parse_plot(spec):
@@ -274,28 +286,27 @@ def check_sweep_folder(out_dir):
     check_folder(out_dir, MARKER, "sweep", SweepError)
 
 
-def _check_names(metrics, plots, known, fields, texts):
+def _check_names(metrics, plots, known, points):
     """Every metric asked for is one the runs report; every plot's x is one, or a varied field
     with numbers for values."""
+    fields = set(points[0])
     names = set(metrics or ()) | {y for _, y in plots} | {x for x, _ in plots if x not in fields}
     unknown = sorted(names - known)
     if unknown:
         raise SweepError(f"unknown metric '{clip_echo(unknown[0])}' (metrics of this scenario: {', '.join(sorted(known))})")
     for x, _ in plots:
-        if x in fields and not all(_is_number(parse_value(t[fields.index(x)])) for t in texts):
-            raise SweepError(f"--plot {clip_echo(x)}: this field's values are not all numbers; plot against a metric")
+        if x in fields and not all(_is_number(p[x]) for p in points):
+            raise SweepError(f"plot {clip_echo(x)}: this field's values are not all numbers; plot against a metric")
 
 
-def _seeded(ref, sets, points, n_seeds):
-    """Per run (point-major), its overrides: ``--set``, the point's values, then its seed."""
+def _seeded(base, points, n_seeds):
+    """Per run (point-major), its scenario: the point's values, then its seed."""
     if n_seeds < 1:
-        raise SweepError(f"--seeds {n_seeds}: must be at least 1")
-    if n_seeds == 1:
-        return [[*sets, *p] for p in points]
+        raise SweepError(f"seeds {n_seeds}: must be at least 1")
     runs = []
     for p in points:
-        base = load_scenario(ref, [*sets, *p]).seed
-        runs += [[*sets, *p, f"seed={base + k}"] for k in range(n_seeds)]
+        doc = base.update(p)
+        runs += [doc] if n_seeds == 1 else [doc.with_seed(doc.model.seed + k) for k in range(n_seeds)]
     return runs
 
 
@@ -305,20 +316,21 @@ def run_sweep(ref, varies, n_seeds=1, metrics=None, overrides=(), out_dir=None, 
 
     Parameters
     ----------
-    ref : str or Path
-        Bundled scenario name or TOML path.
-    varies : list of (field, texts)
-        From :func:`parse_vary`; zipped.
+    ref : str, Path or coopsat.Scenario
+        Bundled scenario name, TOML path or scenario.
+    varies : list of (field, values)
+        Python values per field (the command line's from :func:`parse_vary`); zipped.
     n_seeds : int
         Runs per point, with seeds ``seed … seed + n_seeds − 1``.
     metrics : list of str, optional
         Metrics to tabulate; default every scalar metric.
     overrides : iterable of str
-        ``key.path=value`` assignments applied to every run before the varied values.
+        The command line's ``key.path=value`` assignments applied to every run before the
+        varied values.
     out_dir : str or Path, optional
         Folder for ``sweep.csv``, ``sweep.json`` and the plots (:func:`write_sweep_folder`).
     plots : list of (x, y)
-        From :func:`parse_plot`; need ``out_dir``.
+        Metric or field ``y`` against ``x``; need ``out_dir``.
     progress : bool
         Progress bar per batch.
 
@@ -329,28 +341,29 @@ def run_sweep(ref, varies, n_seeds=1, metrics=None, overrides=(), out_dir=None, 
     Raises
     ------
     SweepError, ScenarioError
-        Before anything runs: bad ``--vary``, seeds, metric or plot names, or folder; a field or
-        value the scenario refuses.
+        Before anything runs: bad varied values, seeds, metric or plot names, or folder; a field
+        or value the scenario refuses.
     """
+    from coopsat.scenarios.document import with_overrides
+
     fields = [f for f, _ in varies]
     points = zip_points(varies)
-    texts = [list(column) for column in zip(*(t for _, t in varies))]
+    texts = [[value_text(p[f]) for f in fields] for p in points]
     if plots and out_dir is None:
-        raise SweepError("--plot: needs --out DIR (the folder that receives the figures)")
+        raise SweepError("plots: need a folder to receive the figures (out_dir, the command's --out)")
     if out_dir is not None:
         check_sweep_folder(out_dir)
-    builds = prepare_runs(ref, _seeded(ref, list(overrides), points, n_seeds))
+    builds = [prepare(d.model, check_published=False) for d in _seeded(with_overrides(ref, overrides), points, n_seeds)]
     groups = group_runs(builds)
     known = set().union(*(metric_names(builds[g[0]]) for g in groups))
-    _check_names(metrics, plots, known, fields, texts)
+    _check_names(metrics, plots, known, points)
     interrupt.check()
     datasets, compile_s, run_s = simulate_runs(builds, progress)
     runs = []
     for k, (built, ds) in enumerate(zip(builds, datasets)):
         values, _ = analyse(built, ds, compare=False)
-        point = texts[k // n_seeds]
         runs.append({
-            **{f: parse_value(t) for f, t in zip(fields, point)},
+            **points[k // n_seeds],
             "seed": built.scenario.seed,
             **{m: v for m, v in values.items() if _is_scalar(v)},
         })

@@ -55,12 +55,12 @@ def _check_target(out, folder, suffix):
     nothing but ``*<suffix>`` files), so a mistyped ``--out`` never empties a folder.
     """
     if folder and out.exists() and not (out.is_dir() and all(p.is_file() and p.suffix == suffix for p in out.iterdir())):
-        raise ExportError(f"--out {out}: exists and is not a folder of {suffix} files; choose another folder or remove it")
+        raise ExportError(f"{out}: exists and is not a folder of {suffix} files; choose another folder or remove it")
     if not folder and out.is_dir():
-        raise ExportError(f"--out {out}: is a folder; name the file, e.g. {out / ('run' + suffix)}")
+        raise ExportError(f"{out}: is a folder; name the file, e.g. {out / ('run' + suffix)}")
     parent = unwritable_parent(out)
     if parent is not None:
-        raise ExportError(f"--out {out}: cannot write under {parent}")
+        raise ExportError(f"{out}: cannot write under {parent}")
 
 
 def export_run(source, fmt, out=None):
@@ -86,5 +86,5 @@ def export_run(source, fmt, out=None):
             out.parent.mkdir(parents=True, exist_ok=True)
             write_text_atomically(out, next(iter(texts.values())))
     except OSError as err:
-        raise ExportError(f"--out {out}: cannot write it ({err.strerror or err})") from None
+        raise ExportError(f"{out}: cannot write it ({err.strerror or err})") from None
     return out

@@ -71,10 +71,10 @@ def check_folder(out_dir, marker, what, error):
     """
     out_dir = Path(out_dir)
     if out_dir.exists() and not (out_dir.is_dir() and (out_dir / marker).is_file()):
-        raise error(f"--out {out_dir}: exists and is not a {what} folder (no {marker}); choose another folder or remove it")
+        raise error(f"{out_dir}: exists and is not a {what} folder (no {marker}); choose another folder or remove it")
     parent = unwritable_parent(out_dir)
     if parent is not None:
-        raise error(f"--out {out_dir}: cannot create a folder under {parent}")
+        raise error(f"{out_dir}: cannot create a folder under {parent}")
 
 
 def unwritable_parent(path):
@@ -136,7 +136,7 @@ def atomic_folder(out_dir, error):
         tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
         tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it private (0700); an output folder follows the umask
     except OSError as err:
-        raise error(f"--out {out_dir}: {err.strerror or err}") from None
+        raise error(f"{out_dir}: {err.strerror or err}") from None
     try:
         yield tmp
         interrupt.check()  # a stop requested until now leaves nothing (the rule of interrupt.py)

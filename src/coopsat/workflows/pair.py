@@ -165,7 +165,7 @@ def run_pair(ref_a, ref_b, n_seeds=3, overrides=(), progress=False):
     import xarray as xr
 
     if n_seeds < 1:
-        raise PairError(f"--seeds {n_seeds}: must be at least 1")
+        raise PairError(f"seeds {n_seeds}: must be at least 1")
     scenario_a, scenario_b = load_scenario(ref_a, overrides), load_scenario(ref_b, overrides)
     check_paired(scenario_a, scenario_b)
     seeds = [scenario_a.seed + k for k in range(n_seeds)]

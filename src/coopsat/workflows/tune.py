@@ -186,7 +186,7 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
     par = resolve_params(built, params)
     notes = smooth_system(built.system)[1]
     if not 1 <= polish <= starts:
-        raise TuneError(f"--polish {polish}: must be between 1 and --starts ({starts})")
+        raise TuneError(f"polish {polish}: must be between 1 and starts ({starts})")
     z0, bounds = _starts(par, starts, spread, seed)
     t0 = time.perf_counter()
     before, _, _ = _exact_metrics(ref, overrides)
@@ -208,11 +208,11 @@ def tune(ref, objective, constraints=(), params=(), overrides=(), starts=1, spre
 def _check_options(starts, max_iter, spread):
     """The options that need no scenario to check."""
     if starts < 1:
-        raise TuneError(f"--starts {starts}: must be at least 1")
+        raise TuneError(f"starts {starts}: must be at least 1")
     if max_iter < 1:
-        raise TuneError(f"--max-iter {max_iter}: must be at least 1")
+        raise TuneError(f"max_iter {max_iter}: must be at least 1")
     if not spread > 0:
-        raise TuneError(f"--spread {spread}: must be positive")
+        raise TuneError(f"spread {spread}: must be positive")
 
 
 def _starts(par, starts, spread, seed):

@@ -98,7 +98,7 @@ def resolve_params(built, paths):
     for path in paths:
         alias, _, name = path.rpartition(".")
         if alias not in by_place:
-            raise TuneError(f"--params {clip_echo(path)}: no table '{clip_echo(alias)}' in this scenario "
+            raise TuneError(f"params {clip_echo(path)}: no table '{clip_echo(alias)}' in this scenario "
                             f"(tables: {', '.join(sorted(by_place))})")
         role, index, table, place = by_place[alias]
         plugin = plugin_for(role, table)
@@ -106,7 +106,7 @@ def resolve_params(built, paths):
         offered = plugin.tunables(table, built.context, part) if plugin.tunables else {}
         if name not in offered:
             what = ", ".join(f"{alias}.{k}" for k in offered) or "none"
-            raise TuneError(f"--params {clip_echo(path)}: {table.kind} cannot tune '{clip_echo(name)}' (tunable here: {what})")
+            raise TuneError(f"params {clip_echo(path)}: {table.kind} cannot tune '{clip_echo(name)}' (tunable here: {what})")
         tunable = offered[name]
         v0 = np.asarray(tunable.value, dtype=float)
         log = bool(np.all(v0 > 0))  # gains and graph weights stay positive
@@ -116,9 +116,9 @@ def resolve_params(built, paths):
         scale = np.maximum(np.abs(v0), 0.05 * np.where(big > 0, big, max(float(np.abs(v0).max()), 1e-12)))
         params.append(Param(path, place, role, index, name, tunable, bool(log), scale))
     if not params:
-        raise TuneError("--params: name at least one field to tune")
+        raise TuneError("params: name at least one field to tune")
     if len({p.path for p in params}) != len(params):
-        raise TuneError("--params: a field is named twice")
+        raise TuneError("params: a field is named twice")
     return params
 
 

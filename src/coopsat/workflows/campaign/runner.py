@@ -268,10 +268,10 @@ def _check_folder(out_dir, job):
     marker = out_dir / MARKER
     if out_dir.exists():
         if not marker.is_file():
-            raise CampaignError(f"--out {out_dir}: exists and is not a campaign folder (no {MARKER}); choose another")
+            raise CampaignError(f"{out_dir}: exists and is not a campaign folder (no {MARKER}); choose another")
         old = json.loads(marker.read_text())
         if (old["campaign"], old["scenario_toml"]) != (job["campaign"], job["scenario_toml"]):
-            raise CampaignError(f"--out {out_dir}: holds another campaign (a different file, settings or scenario); "
+            raise CampaignError(f"{out_dir}: holds another campaign (a different file, settings or scenario); "
                                 "choose another folder")
 
 
@@ -303,7 +303,7 @@ def client_for(workers=None, scheduler=None, connect_timeout_s=5.0):
         try:
             return Client(scheduler, timeout=f"{connect_timeout_s}s")
         except (OSError, TimeoutError) as err:
-            raise CampaignError(f"--scheduler {scheduler}: cannot reach it within {connect_timeout_s:g} s ({type(err).__name__})") from None
+            raise CampaignError(f"scheduler {scheduler}: cannot reach it within {connect_timeout_s:g} s ({type(err).__name__})") from None
     # Port 0: a dashboard on any free port (None still binds 8787, and warns when it is taken).
     from coopsat.core import runtime
 

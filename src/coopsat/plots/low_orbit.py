@@ -10,7 +10,8 @@ from matplotlib.figure import Figure
 from coopsat.analysis.papers.low_orbit import series
 
 
-def _lines(ax, t_s, values, names):
+def lines_by_spacecraft(ax, t_s, values, names):
+    """One line per spacecraft (columns of ``values``); thin and without a legend above eight."""
     many = len(names) > 8
     for k, name in enumerate(names):
         ax.plot(t_s, values[:, k], lw=0.6 if many else 1.2, label=None if many else name)
@@ -37,7 +38,7 @@ def environment_figure(ds, built):
         values = ds[var].values
         if values.ndim == 3:
             values = np.linalg.norm(values, axis=-1)
-        _lines(ax, t_s, values, names if var != "sunlight_fraction" else names[:1])
+        lines_by_spacecraft(ax, t_s, values, names if var != "sunlight_fraction" else names[:1])
         if log:
             ax.set_yscale("log")
         ax.set_ylabel(label)
@@ -56,7 +57,7 @@ def relative_motion_figure(ds, built):
     fig = Figure(figsize=(7.5, 5.5), layout="constrained")
     for k, (c, label) in enumerate(((0, "along-track x (m)"), (2, "radial z, to nadir (m)"))):
         ax = fig.add_subplot(2, 1, k + 1)
-        _lines(ax, t_s, rel[:, 1:, c], names)
+        lines_by_spacecraft(ax, t_s, rel[:, 1:, c], names)
         ax.set_ylabel(label)
     ax.set_xlabel("time (s)")
     fig.suptitle(f"{ds.attrs.get('scenario_name', '')}: positions relative to {ds['spacecraft'].values[0]} (truth, its LVLH)")

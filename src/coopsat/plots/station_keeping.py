@@ -8,16 +8,9 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from coopsat.analysis.papers.station_keeping import series
+from coopsat.plots.low_orbit import lines_by_spacecraft
 
 _AXES = ("along-track x", "cross-track y", "radial z (nadir)")
-
-
-def _lines(ax, t_s, values, names):
-    many = len(names) > 8
-    for k, name in enumerate(names):
-        ax.plot(t_s, values[:, k], lw=0.6 if many else 1.2, label=None if many else name)
-    if not many:
-        ax.legend(fontsize="small")
 
 
 def slot_error_figure(ds, built):
@@ -28,7 +21,7 @@ def slot_error_figure(ds, built):
     fig = Figure(figsize=(7.5, 7.0), layout="constrained")
     for c, label in enumerate(_AXES):
         ax = fig.add_subplot(3, 1, c + 1)
-        _lines(ax, t_s, err[:, 1:, c], names)
+        lines_by_spacecraft(ax, t_s, err[:, 1:, c], names)
         ax.set_ylabel(f"{label} (m)")
     ax.set_xlabel("time (s)")
     start = float(built.system.controller.start_s)
@@ -45,7 +38,7 @@ def delta_v_figure(ds, built):
     dv = ds["abs_force_impulse"].values.sum(axis=-1) / masses
     fig = Figure(figsize=(7.0, 4.2), layout="constrained")
     ax = fig.add_subplot()
-    _lines(ax, ds["time"].values, dv, [str(s) for s in ds["spacecraft"].values])
+    lines_by_spacecraft(ax, ds["time"].values, dv, [str(s) for s in ds["spacecraft"].values])
     ax.set_xlabel("time (s)")
     ax.set_ylabel("Δv, Σ axes ∫|F| dt / m (m/s)")
     ax.set_title(f"{ds.attrs.get('scenario_name', '')}: fuel")

@@ -32,20 +32,22 @@ def relative_position_lvlh(r_eci, v_eci):
     return np.asarray(eci_to_lvlh(r_eci[:, :1], v_eci[:, :1], r_eci, v_eci)[0])
 
 
-def series(ds, built):
-    """``relative_position_lvlh`` (time, spacecraft, component), m, for two or more spacecraft."""
+def lvlh_series(values_m, what):
+    """A (time, spacecraft, component) series in metres, in the first spacecraft's LVLH frame;
+    ``what`` begins its long name."""
     import xarray as xr
 
+    return xr.DataArray(values_m, dims=("time", "spacecraft", "component"), attrs={
+        "units": "m", "long_name": f"{what}, the first spacecraft's LVLH frame (x along-track, y against the orbit "
+                                   "normal, z to nadir)"})
+
+
+def series(ds, built):
+    """``relative_position_lvlh`` (time, spacecraft, component), m, for two or more spacecraft."""
     if ds.sizes["spacecraft"] < 2:
         return {}
     rho = relative_position_lvlh(ds["r_eci"].values, ds["v_eci"].values)
-    return {
-        "relative_position_lvlh": xr.DataArray(
-            rho, dims=("time", "spacecraft", "component"),
-            attrs={"units": "m", "long_name": "true position relative to the first spacecraft, its LVLH frame (x "
-                   "along-track, y against the orbit normal, z to nadir)"},
-        )
-    }
+    return {"relative_position_lvlh": lvlh_series(rho, "true position relative to the first spacecraft")}
 
 
 def metrics(ds, built):

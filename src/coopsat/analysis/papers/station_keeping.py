@@ -20,6 +20,8 @@ at every sample (x along-track, y against the orbit normal, z to nadir).
 
 import numpy as np
 
+from coopsat.analysis.papers.low_orbit import lvlh_series, relative_position_lvlh
+
 FIGURES = "coopsat.plots.station_keeping"
 """Module with the slot-error and fuel figures."""
 
@@ -36,10 +38,7 @@ def slot_errors_lvlh(r_eci, v_eci, targets_lvlh):
     targets_lvlh : (n, 3)
         Where each spacecraft should be relative to the first, its LVLH frame, m.
     """
-    from coopsat.geometry.frames import eci_to_lvlh
-
-    rho, _ = eci_to_lvlh(r_eci[:, :1], v_eci[:, :1], r_eci, v_eci)
-    return np.asarray(rho) - targets_lvlh[None]
+    return relative_position_lvlh(r_eci, v_eci) - targets_lvlh[None]
 
 
 def _start_s(built):
@@ -73,16 +72,8 @@ def delta_v_rate_per_day(t_s, abs_impulse_ns, masses_kg, start_s):
 
 def series(ds, built):
     """``slot_error_lvlh`` (time, spacecraft, component), m."""
-    import xarray as xr
-
     err = slot_errors_lvlh(ds["r_eci"].values, ds["v_eci"].values, built.system.controller.targets_lvlh())
-    return {
-        "slot_error_lvlh": xr.DataArray(
-            err, dims=("time", "spacecraft", "component"),
-            attrs={"units": "m", "long_name": "true position relative to the first spacecraft minus the slot, its LVLH "
-                   "frame (x along-track, y against the orbit normal, z to nadir)"},
-        )
-    }
+    return {"slot_error_lvlh": lvlh_series(err, "true position relative to the first spacecraft minus the slot")}
 
 
 def metrics(ds, built):

@@ -38,7 +38,9 @@ are a dict of named quantities: the run's moving state quantities (``"q"`` or ``
 quantity replaced by (or, for a derived quantity such as ``"rho"``, added as) its reading.
 
 Each protocol is ``runtime_checkable``: ``isinstance(part, Actuator)`` checks that every
-member exists. :func:`protocol_problems` checks the call signatures too.
+member exists. :func:`protocol_problems` checks the call signatures too, and the type of every
+*optional* member a part defines: the attributes a caller reads only where a part has them,
+each with its default, declared once in :data:`OPTIONAL` and read through :func:`optional`.
 """
 
 from __future__ import annotations
@@ -412,6 +414,62 @@ class Disturbance(Protocol):
         """How each name ``record`` returns appears in the dataset."""
 
 
+@dataclasses.dataclass(frozen=True)
+class OptionalMember:
+    """An attribute a part of ``roles`` may define; a part without it behaves as ``default``.
+
+    Attributes
+    ----------
+    roles : tuple of str
+        The roles whose parts may define it (:data:`PROTOCOLS`' keys).
+    types : tuple of type
+        What its value must be (``isinstance``), named in ``what``.
+    what : str
+        Its type in words (``"a bool"``).
+    default : object
+    doc : str
+        What it means and who reads it.
+    """
+
+    roles: tuple
+    types: tuple
+    what: str
+    default: Any
+    doc: str
+
+
+OPTIONAL = {
+    "local": OptionalMember(
+        ("controller",), (bool,), "a bool", False,
+        "True: one spacecraft's flight software (:class:`LocalController`); the engine runs one copy per "
+        "spacecraft (coopsat.sim.flight_software)."),
+    "reads_own": OptionalMember(
+        ("controller",), (bool,), "a bool", False,
+        "True: the per-spacecraft form (``step_one``) reads, per link, its own outbox of the instant the link's "
+        "message was sent (``inbox_i.own``); else ``own`` is empty. The engine and software in the loop deliver it."),
+    "per_spacecraft_refusal": OptionalMember(
+        ("controller",), (str, type(None)), "a str or None", None,
+        "Why a formation-wide law offers no per-spacecraft form (``reads``, ``outbox_one``, ``step_one``): "
+        "software in the loop quotes it when it refuses the law."),
+    "lossy": OptionalMember(
+        ("network",), (bool,), "a bool", False,
+        "True: ``deliver`` may lose a message. Software in the loop then loses a silent spacecraft's links by the "
+        "network's rule for a lost message (``hold``); else it drops them (weight 0)."),
+    "hold": OptionalMember(
+        ("network",), (bool,), "a bool", False,
+        "True: a lost message is replaced by the last one the link delivered (its weight kept); False: its term "
+        "is dropped (weight 0). Read where ``lossy`` is True."),
+}
+"""Every optional member of a part, by name (:class:`OptionalMember`): what callers may read of a
+part besides its protocol's members, each with its type and default."""
+
+
+def optional(part: Any, name: str) -> Any:
+    """``part``'s optional member ``name`` (a key of :data:`OPTIONAL`), or its default where the
+    part does not define it."""
+    return getattr(part, name, OPTIONAL[name].default)
+
+
 PROTOCOLS = {
     "controller": Controller,
     "actuator": Actuator,
@@ -424,7 +482,7 @@ PROTOCOLS = {
 
 def protocol_of(part: Any, role: str) -> type:
     """The protocol a part of ``role`` follows."""
-    if role == "controller" and getattr(part, "local", False):
+    if role == "controller" and optional(part, "local"):
         return LocalController
     return PROTOCOLS[role]
 
@@ -440,14 +498,16 @@ def protocol_problems(part: Any, role: str) -> list[str]:
     """What keeps ``part`` from being a part of ``role``; empty when nothing does.
 
     Checks that it is a frozen dataclass registered as a JAX pytree (:func:`coopsat.plugins.part`),
-    that every member of its protocol exists, and that each method accepts the protocol's
-    positional arguments (the engine passes them by position; extra parameters need defaults).
+    that every member of its protocol exists, that each method accepts the protocol's
+    positional arguments (the engine passes them by position; extra parameters need defaults),
+    and that each optional member of its role it defines (:data:`OPTIONAL`) has its type.
 
     Returns
     -------
     list of str
         One line per problem (``"ColdGas.plan(command, x, state) cannot be called as
-        plan(command, x, state, period_s, key, t)"``).
+        plan(command, x, state, period_s, key, t)"``, ``"Net.hold is 'yes', not a bool
+        (optional member of a network part)"``).
     """
     import jax
 
@@ -474,6 +534,17 @@ def protocol_problems(part: Any, role: str) -> list[str]:
             except (TypeError, ValueError):
                 have = "(…)"
             out.append(f"{name}.{member}{have} cannot be called as {member}({', '.join(wanted)})")
+    return out + _optional_problems(part, role)
+
+
+def _optional_problems(part, role):
+    """A line per optional member of ``role`` that ``part`` defines with a value of another type."""
+    out = []
+    for member, spec in OPTIONAL.items():
+        if role in spec.roles and hasattr(part, member):
+            value = getattr(part, member)
+            if not isinstance(value, spec.types):
+                out.append(f"{type(part).__name__}.{member} is {value!r}, not {spec.what} (optional member of a {role} part)")
     return out
 
 

@@ -13,13 +13,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from coopsat.sim.period import PeriodState
+
 GROUP_SPACECRAFT = 1024
 """Spacecraft (runs × N) integrated together in one group of a batch: a larger batch is run
 group after group (:func:`_batch_groups`), so that the RK4 stages' working set stays in the
 core's cache (docs/engine-notes.md, "Groups of a batch")."""
 
-CARRY_AXES = (0, 0, 0, None)
-"""``vmap`` axes of a batch's carry (plant state, parts' states, counters, tick). The tick stays
+CARRY_AXES = PeriodState(x=0, parts=0, counters=0, tick=None)
+"""``vmap`` axes of a batch's carry (:class:`~coopsat.sim.period.PeriodState`). The tick stays
 unbatched, so time (and every schedule indexed by it) is the same traced value for all runs: a
 branch on time (a planner due every so often) stays a branch under ``vmap`` instead of becoming
 a select that evaluates both sides every period."""

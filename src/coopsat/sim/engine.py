@@ -35,7 +35,7 @@ from coopsat.sim.programs import _final_sample, _initial_carry, _run_chunk, _run
 from coopsat.sim.tick import _quantities
 
 __all__ = ["MAX_CHUNK", "NonFiniteStateError", "RunOutput", "bucket_runs", "output_shapes", "output_specs", "state_bytes",
-           "run_samples", "simulate", "with_native_decided"]
+           "run_output", "run_samples", "simulate", "with_native_decided"]
 
 
 class NonFiniteStateError(SimulationError):
@@ -248,6 +248,39 @@ def _assemble(system, chunks, last, n_records, batch):
     if batch is not None:
         samples = {k: v[:batch.n_runs] for k, v in samples.items()}  # without the padding runs
     return samples
+
+
+def run_output(system, samples, last, t_s, *, compile_s, run_s, names=None):
+    """The :class:`RunOutput` of one run stepped period by period outside the compiled chunks
+    (software in the loop, :mod:`coopsat.sim.stepping`), checked and assembled as
+    :func:`simulate` checks and assembles its own.
+
+    Parameters
+    ----------
+    system : System
+        The run's system (interface layout).
+    samples : dict of str -> ndarray
+        Every record interval's sample (:func:`~coopsat.sim.programs.sample`) stacked,
+        ``(n_records, k…, n)`` per spacecraft (the loop's layout).
+    last : dict of str -> ndarray
+        The final sample (:func:`~coopsat.sim.programs.final_sample`), ``(k…, n)``.
+    t_s : ndarray (n_records + 1,)
+        Sample times, s.
+    compile_s, run_s : float
+        Wall time compiling and running, s.
+    names : sequence of str, optional
+        Spacecraft names, for error messages.
+
+    Raises
+    ------
+    NonFiniteStateError
+        As :func:`simulate_as_built`.
+    """
+    n_records = len(t_s) - 1
+    _check_finite(samples, t_s, 0, False, names)
+    _check_finite({k: np.expand_dims(v, 0) for k, v in last.items()}, t_s, n_records, False, names)
+    return RunOutput(t_s=t_s, samples=_assemble(system, [samples], last, n_records, None), compile_s=compile_s,
+                     run_s=run_s)
 
 
 def simulate(system, n_records, record_interval_s, *, native=None, **options):

@@ -18,35 +18,42 @@ import numpy as np
 from coopsat.geometry.quaternion import quat_normalize
 from coopsat.sim.flight_software import as_flight_software
 from coopsat.sim.layout import AXIS, _cm, _engine_view, _from_inner, _inner_plant, _to_inner
-from coopsat.sim.period import _account, _command, _period, _sense, _truth
+from coopsat.sim.period import PeriodState, _period, _sense, account, command, truth
 
 
-def _means(system, acc_before, acc_after, interval_s):
-    """Each actuator's mean output over an interval, from its counter (e.g. mean torque from
-    the signed angular impulse)."""
+def interval_means(system, counters_before, counters_after, interval_s):
+    """Each actuator's mean output over an interval of ``interval_s`` seconds, from its counter
+    (e.g. mean torque from the signed angular impulse): ``{name: (3, n)}``."""
     return {
-        a.mean_output[0]: (acc_after[a.mean_output[1]] - acc_before[a.mean_output[1]]) / interval_s
+        a.mean_output[0]: (counters_after[a.mean_output[1]] - counters_before[a.mean_output[1]]) / interval_s
         for a in system.actuators
     }
 
 
-def _block(system, carry, batched):
+def sample(true_state, counters, record, means):
+    """One recorded sample: the true state (:func:`~coopsat.sim.period.truth`) and the counters
+    at its instant, what the parts record there, and each actuator's mean output over the
+    interval that follows it."""
+    return {**true_state, **counters, **record, **means}
+
+
+def _block(system, state, batched):
     """One record interval: the sample at its start, then ``periods_per_record`` periods.
 
     The sample holds the state and the controller's record at its instant and the mean
     output of each actuator over the whole interval that follows (from the counters
     accumulated over it), so no period is left out of the record.
     """
-    x, _, acc, _ = carry
-    carry, (_, record) = _period(system, carry, batched)
+    after, (_, record) = _period(system, state, batched)
     rest = system.structure.periods_per_record - 1
     if rest > 0:
-        carry = jax.lax.fori_loop(0, rest, lambda _, c: _period(system, c, batched)[0], carry)
+        after = jax.lax.fori_loop(0, rest, lambda _, c: _period(system, c, batched)[0], after)
     interval = system.period_s * system.structure.periods_per_record
-    truth = _truth(system, x)
+    true_state = truth(system, state.x)
     if batched:
-        truth = jax.tree_util.tree_map(_from_inner, truth)
-    return carry, {**truth, **acc, **record, **_means(system, acc, carry[2], interval)}
+        true_state = jax.tree_util.tree_map(_from_inner, true_state)
+    means = interval_means(system, state.counters, after.counters, interval)
+    return after, sample(true_state, state.counters, record, means)
 
 
 def _scan_records(system, carry, first_record, n_records, chunk, batched):
@@ -73,10 +80,10 @@ def _run_chunk(system, carry, first_record, n_records, chunk):
 def _run_group(system, carry, first_record, n_records, chunk):
     """``chunk`` record intervals of one group of runs (batch-first in and out)."""
     system = replace(system, plant=_inner_plant(system.plant))
-    x, st, acc, tick = carry
-    carry = (jax.tree_util.tree_map(_to_inner, x), st, acc, tick)
-    (x, st, acc, tick), out = _scan_records(system, carry, first_record, n_records, chunk, True)
-    return (jax.tree_util.tree_map(_from_inner, x), st, acc, tick), jax.tree_util.tree_map(lambda a: jnp.moveaxis(a, 1, 0), out)
+    carry = carry._replace(x=jax.tree_util.tree_map(_to_inner, carry.x))
+    carry, out = _scan_records(system, carry, first_record, n_records, chunk, True)
+    return (carry._replace(x=jax.tree_util.tree_map(_from_inner, carry.x)),
+            jax.tree_util.tree_map(lambda a: jnp.moveaxis(a, 1, 0), out))
 
 
 @partial(jax.jit, static_argnames=("chunk", "groups", "devices"))
@@ -91,14 +98,15 @@ def _run_chunk_batched(system, carry, first_record, n_records, chunk, groups=1, 
     """
     if groups == 1:
         return _run_group(system, carry, first_record, n_records, chunk)
-    dt_s, tick = system.dt_s, carry[3]
+    dt_s, tick = system.dt_s, carry.tick
     split = lambda a: a.reshape(groups, a.shape[0] // groups, *a.shape[1:])  # noqa: E731
     merge = lambda a: a.reshape(a.shape[0] * a.shape[1], *a.shape[2:])  # noqa: E731
-    per_group = jax.tree_util.tree_map(split, (replace(system, dt_s=None), carry[:3]))
+    # The tick is shared by every run (unbatched): it stays out of the groups.
+    per_group = jax.tree_util.tree_map(split, (replace(system, dt_s=None), carry._replace(tick=None)))
 
     def one(group):
         g_system, g_carry = group
-        return _run_group(replace(g_system, dt_s=dt_s), (*g_carry, tick), first_record, n_records, chunk)
+        return _run_group(replace(g_system, dt_s=dt_s), g_carry._replace(tick=tick), first_record, n_records, chunk)
 
     if devices > 1:
         # One share of the groups per device (on the CPU: per core, coopsat.core.runtime), each device
@@ -107,23 +115,31 @@ def _run_chunk_batched(system, carry, first_record, n_records, chunk, groups=1, 
 
         mesh = Mesh(np.array(jax.devices()[:devices]), ("device",))
         spec = PartitionSpec("device")
-        (x, st, acc, ticks), out = jax.shard_map(
+        carry, out = jax.shard_map(
             lambda pg: jax.lax.map(one, pg), mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False
         )(per_group)
     else:
-        (x, st, acc, ticks), out = jax.lax.map(one, per_group)
-    return jax.tree_util.tree_map(merge, (x, st, acc)) + (ticks[0],), jax.tree_util.tree_map(merge, out)
+        carry, out = jax.lax.map(one, per_group)
+    merged = jax.tree_util.tree_map(merge, carry._replace(tick=None))
+    return merged._replace(tick=carry.tick[0]), jax.tree_util.tree_map(merge, out)
+
+
+def final_sample(system, state, pulses, record):
+    """The sample at the end of the run, from the :class:`~coopsat.sim.period.PeriodState` there
+    and the ``pulses`` and ``record`` of the period that would follow: each actuator's mean
+    output is that period's."""
+    inc = account(system, pulses)
+    means = {a.mean_output[0]: inc[a.mean_output[1]] / system.period_s for a in system.actuators}
+    return sample(truth(system, state.x), state.counters, record, means)
 
 
 @jax.jit
 def _final_sample(system, carry):
-    """The sample at the end of the run; actuator means are those of the period that would follow."""
+    """The compiled loop's last sample: the period that would follow commanded, then
+    :func:`final_sample`."""
     system = _engine_view(system)
-    x, st, acc, tick = carry
-    pulses, _, record = _command(system, x, st, tick)
-    inc = _account(system, pulses)
-    means = {a.mean_output[0]: inc[a.mean_output[1]] / system.period_s for a in system.actuators}
-    return {**_truth(system, x), **acc, **record, **means}
+    pulses, _, record = command(system, carry.x, carry.parts, carry.tick)
+    return final_sample(system, carry, pulses, record)
 
 
 def _initial_carry(system):
@@ -132,32 +148,33 @@ def _initial_carry(system):
     The network's history before t = 0 is the first outbox (a constant initial function, as
     is usual for delay equations).
     """
-    (x0, st, acc, tick), y0 = _initial_parts(system)
-    outbox0 = as_flight_software(system.controller, system.structure.n_spacecraft).outbox(y0, st["controller"])
-    return (x0, {**st, "network": system.network.init(outbox0)}, acc, tick)
+    state, y0 = initial_parts(system)
+    outbox0 = as_flight_software(system.controller, system.structure.n_spacecraft).outbox(y0, state.parts["controller"])
+    return state._replace(parts={**state.parts, "network": system.network.init(outbox0)})
 
 
-def _initial_parts(system):
-    """The carry at t = 0 without the network's state (``()``), and the first measurements
-    ``y0``, from which the flight software's first outbox fills the network's history."""
+def initial_parts(system):
+    """The :class:`~coopsat.sim.period.PeriodState` at t = 0 without the network's state
+    (``parts["network"]`` is ``()``), and the first measurements ``y0`` (``{quantity: (k, n)}``),
+    from which the flight software's first outbox fills the network's history. ``system`` in
+    the interface layout."""
     system_cm = _engine_view(system)
     x0 = jax.tree_util.tree_map(_cm, system.x0)
     x0 = x0._replace(q_bi=quat_normalize(x0.q_bi, AXIS))
     n = system.structure.n_spacecraft
-    truth = _truth(system_cm, x0)
-    st = {
+    true_state = truth(system_cm, x0)
+    parts = {
         "controller": system.controller.init(n),
-        "sensors": tuple(s.init(s.truth(truth, x0, 0.0), n) for s in system.sensors),
-        "held": tuple(s.truth(truth, x0, 0.0) for s in system.sensors),
+        "sensors": tuple(s.init(s.truth(true_state, x0, 0.0), n) for s in system.sensors),
+        "held": tuple(s.truth(true_state, x0, 0.0) for s in system.sensors),
         "actuators": tuple(a.init(n) for a in system.actuators),
         "disturbances": tuple(d.init(n) for d in system.disturbances),
         "network": (),
     }
-    y0, _ = _sense(system_cm, x0, st, 0, jax.random.fold_in(system.key, 0), 0.0)
+    y0, _ = _sense(system_cm, x0, parts, 0, jax.random.fold_in(system.key, 0), 0.0)
     zeros = jax.eval_shape(
-        lambda: _account(system_cm, tuple(a.plan(jnp.zeros_like(x0.omega_b), x0, s, system_cm.period_s, system.key, 0.0)[0]
-                                          for a, s in zip(system_cm.actuators, st["actuators"])))
+        lambda: account(system_cm, tuple(a.plan(jnp.zeros_like(x0.omega_b), x0, s, system_cm.period_s, system.key, 0.0)[0]
+                                         for a, s in zip(system_cm.actuators, parts["actuators"])))
     )
-    acc = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), zeros)
-    return (x0, st, acc, jnp.zeros((), jnp.int64)), y0
-
+    counters = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), zeros)
+    return PeriodState(x0, parts, counters, jnp.zeros((), jnp.int64)), y0

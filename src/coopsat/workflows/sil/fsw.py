@@ -81,10 +81,12 @@ class OneSpacecraft:
         state as it is, so that the first period is not late."""
         import numpy as np
 
+        from coopsat.plugins.protocols import optional
+
         y = {q: np.zeros(shape) for q, shape in reads.items()}
         msg = self._outbox(self.part, self.i, y, self.state)
         zeros = {k: np.zeros((*np.shape(v), len(self.mine))) for k, v in msg.items()}
-        own = zeros if getattr(self.part, "reads_own", False) else {}
+        own = zeros if optional(self.part, "reads_own") else {}
         self._step(self.part, self.i, np.float64(0.0), y, zeros, np.zeros(len(self.mine)), self.state,
                    np.zeros(2, np.uint32), self.dst, self.mine, own)
 

@@ -1,25 +1,27 @@
 """The simulator's side of a SIL run: the closed loop one control period at a time, with the
 flight software in other processes.
 
-A period is the compiled loop's period (:mod:`coopsat.sim.period`) cut where the flight
-software runs:
+A period is the compiled loop's period, made of the engine's own stages
+(:mod:`coopsat.sim.stepping`), cut where the flight software runs:
 
     begin (jitted: sense, the period's keys) → each process: ``sense`` → ``outbox``
     → deliver (jitted: the network part's own ``deliver``) → each process: ``inbox`` → ``command``
     → end (jitted: actuate, account, integrate the period)
 
-Records are taken as the compiled loop takes them (:mod:`coopsat.sim.programs`: the sample at a
-record interval's start, the actuators' means over it, the final sample after the last
-period), and assembled by the engine's own function, so the run's dataset is built as
-``coopsat run``'s is. With every process answering, the result equals ``coopsat run``'s (the same
-functions on the same numbers; docs/sil.md says to what precision and why).
+Records are taken as the compiled loop takes them (:func:`~coopsat.sim.stepping.sample` at a
+record interval's start, with the actuators' means over the interval;
+:func:`~coopsat.sim.stepping.final_sample` after the last period) and assembled by the engine
+(:func:`~coopsat.sim.engine.run_output`), so the run's dataset is built as ``coopsat run``'s is.
+With every process answering, the result equals ``coopsat run``'s (the same functions on the
+same numbers; docs/sil.md says to what precision and why).
 
 A spacecraft whose process is killed or paused is *silent*: the simulator executes its last
 command (or zero), records its controller's last record (or zeros), and the links it
 transmits on are lost from that period on, by the network's rule for a lost message: held
-(the last message each receiver got on the link) where the network holds lost messages
-(``on_loss = "hold"``), else dropped (weight 0). Its slot in the network's history keeps its last
-broadcast.
+(the last message each receiver got on the link) where the network part declares that it loses
+messages and holds them (``lossy`` and ``hold``, :data:`coopsat.plugins.protocols.OPTIONAL`:
+``kind = "delayed"`` with drop-outs and ``on_loss = "hold"``), else dropped (weight 0). Its slot
+in the network's history keeps its last broadcast.
 
 With ``realtime`` a period starts every ``period_s / realtime`` seconds of wall time, and every
 flight software must answer both of its rounds within that slot. One that misses is *late* for
@@ -34,16 +36,15 @@ import pickle
 import time
 from dataclasses import dataclass, field
 from functools import partial
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from coopsat.sim.engine import RunOutput, _assemble, _check_finite, output_shapes
-from coopsat.sim.layout import _engine_view
-from coopsat.sim.period import (_KEY_CONTROLLER, _KEY_NETWORK, _account, _actuate, _integrate_period, _sense_period,
-                                _truth)
-from coopsat.sim.programs import _initial_parts, _means
+from coopsat.plugins.protocols import optional
+from coopsat.sim import stepping
+from coopsat.sim.engine import output_shapes, run_output
 from coopsat.workflows import interrupt
 from coopsat.workflows.sil import protocol, schema
 
@@ -99,15 +100,23 @@ class Events:
         self.rows.append({"spacecraft": name, "event": what, "t_s": t_s, "wall_utc": time.time()})
 
 
+class _Begun(NamedTuple):
+    """A period once sensed (:func:`_begin`)."""
+
+    sensed: stepping.Sensed
+    """As :func:`~coopsat.sim.stepping.sense` returns it, ``y`` only the quantities the flight
+    software reads (``{quantity: (k, n)}``)."""
+    keys: jax.Array
+    """Each spacecraft's controller key, ``fold_in(controller key, i)``, (n, 2)."""
+
+
 @partial(jax.jit, static_argnames=("reads",))
-def _begin(system, x, st, tick, reads):
-    """Sense at the period's start. Returns t (s), the readings the flight software reads
-    (``{quantity: (k, n)}``), the states, the sensors' record, the true state, the period's key,
-    the network's key and each spacecraft's controller key (``fold_in(key, i)``, (n, 2))."""
-    t, key, y, st, measured = _sense_period(system, x, st, tick)
-    ctrl_key = jax.random.fold_in(key, _KEY_CONTROLLER)
+def _begin(system, state, reads):
+    """Sense at the start of the period of ``state`` (a :class:`~coopsat.sim.stepping.PeriodState`)."""
+    sensed = stepping.sense(system, state.x, state.parts, state.tick)
+    ctrl_key = stepping.controller_key(sensed.key)
     keys = jax.vmap(lambda i: jax.random.fold_in(ctrl_key, i))(jnp.arange(system.structure.n_spacecraft))
-    return t, {q: y[q] for q in reads}, st, measured, _truth(system, x), key, jax.random.fold_in(key, _KEY_NETWORK), keys
+    return _Begun(sensed._replace(y={q: sensed.y[q] for q in reads}), keys)
 
 
 def _host(tree):
@@ -122,11 +131,12 @@ def _network_init(system, outbox):
 
 @partial(jax.jit, static_argnames=("own",))
 def _deliver(system, tick, outbox, net_state, key, own=False):
-    """The network part's ``deliver``, its links flat (as the compiled loop flattens them for
-    per-spacecraft flight software, :mod:`coopsat.sim.flight_software`): messages
-    ``{name: (k, E)}``, weights (E,), and with ``own`` each link's receiver's own outbox of the
-    instant its message was sent (``{name: (k, E)}``; else ``{}``)."""
-    inbox, net_state, record = system.network.deliver(tick, outbox, net_state, key)
+    """The network part's ``deliver`` in the period whose key is ``key``, its links flat (as the
+    compiled loop flattens them for per-spacecraft flight software,
+    :mod:`coopsat.sim.flight_software`): messages ``{name: (k, E)}``, weights (E,), and with
+    ``own`` each link's receiver's own outbox of the instant its message was sent
+    (``{name: (k, E)}``; else ``{}``)."""
+    inbox, net_state, record = stepping.deliver(system, tick, outbox, net_state, key)
     links = inbox.weight.ndim
     flat = lambda m: m.reshape(m.shape[: m.ndim - links] + (-1,))  # noqa: E731
     mine = jax.tree_util.tree_map(flat, inbox.own) if own else {}
@@ -134,29 +144,26 @@ def _deliver(system, tick, outbox, net_state, key, own=False):
 
 
 @partial(jax.jit, static_argnames=("reads",))
-def _end_begin(system, x, st, acc, tick, t, key, cmd, record, reads):
-    """Actuate, account and integrate the period, then begin the next one (one program, not
-    two: a dispatch costs more than the period's arithmetic). Returns the next carry, the
-    period's record, and :func:`_begin`'s values for the next period."""
-    pulses, st, record = _actuate(system, x, st, t, key, cmd, record)
-    increments = _account(system, pulses)
-    x = _integrate_period(system, x, pulses, tick, st["disturbances"])
-    acc = jax.tree_util.tree_map(jnp.add, acc, increments)
-    tick = tick + system.structure.ticks_per_period
-    return (x, acc, tick, record), _begin(system, x, st, tick, reads)
+def _end_begin(system, state, sensed, cmd, record, reads):
+    """Actuate, account and integrate the period of ``state`` (sensed as ``sensed``) under the
+    commands ``cmd``, then begin the next one (one program, not two: a dispatch costs more than
+    the period's arithmetic). Returns the next :class:`~coopsat.sim.stepping.PeriodState`, the
+    period's record and the next period's :class:`_Begun`."""
+    pulses, parts, record = stepping.actuate(system, state.x, sensed.parts, sensed.t, sensed.key, cmd, record)
+    state = stepping.advance(system, state, parts, pulses, stepping.account(system, pulses))
+    return state, record, _begin(system, state, reads)
 
 
 @jax.jit
-def _final(system, x, st, acc, truth, t, key, cmd, record):
-    """The last sample (as :func:`coopsat.sim.programs._final_sample`)."""
-    pulses, _, record = _actuate(system, x, st, t, key, cmd, record)
-    inc = _account(system, pulses)
-    means = {a.mean_output[0]: inc[a.mean_output[1]] / system.period_s for a in system.actuators}
-    return {**truth, **acc, **record, **means}
+def _final(system, state, sensed, cmd, record):
+    """The last sample: the period that would follow actuated under ``cmd``, then
+    :func:`~coopsat.sim.stepping.final_sample` (as the compiled loop's last sample)."""
+    pulses, _, record = stepping.actuate(system, state.x, sensed.parts, sensed.t, sensed.key, cmd, record)
+    return stepping.final_sample(system, state, pulses, record)
 
 
-_interval_means = jax.jit(lambda system, before, after: _means(system, before, after,
-                                                                system.period_s * system.structure.periods_per_record))
+_interval_means = jax.jit(lambda system, before, after: stepping.interval_means(
+    system, before, after, system.period_s * system.structure.periods_per_record))
 
 
 def setup_messages(built, system, controller, y0, replies):
@@ -253,7 +260,7 @@ class _Links:
     def __init__(self, network, n):
         self.src = np.asarray(network.src).reshape(-1)
         self.mine = [np.flatnonzero(np.asarray(network.dst).reshape(-1) == i) for i in range(n)]
-        self.hold = bool(getattr(network, "lossy", False) and getattr(network, "hold", False))
+        self.hold = optional(network, "lossy") and optional(network, "hold")
         self.held = None
 
     def silence(self, msg, weight, own, live):
@@ -277,10 +284,10 @@ class _Loop:
 
     def __init__(self, built, system, fleet, controller, hold_commands, blank):
         self.names = list(built.names)
-        self.view = _engine_view(system)
+        self.view = stepping.engine_view(system)
         self.fleet = fleet
         self.reads = tuple(controller.reads)
-        self.reads_own = bool(getattr(controller, "reads_own", False))
+        self.reads_own = optional(controller, "reads_own")
         self.links = _Links(system.network, len(self.names))
         recorded = output_shapes(system)  # interface layout: (n, k…) per spacecraft
         self.record_specs = {k: (recorded[k][1:] if spec.per_spacecraft else recorded[k], spec.per_spacecraft)
@@ -299,11 +306,11 @@ class _Loop:
 
     def control(self, p, tick, begun, due=None):
         """Both rounds of period ``p`` with the processes that answer, and the network between
-        them; ``begun``: :func:`_begin`'s values; ``due``: realtime, the instant
+        them; ``begun``: the period's :class:`_Begun`; ``due``: realtime, the instant
         (``time.monotonic()``) by which both rounds must be answered (the module docstring).
         Returns the commands and the record so far."""
-        t, y, _, measured, _, _, net_key, keys = begun
-        y, keys, t_s = _host((y, keys, t))
+        sensed = begun.sensed
+        y, keys, t_s = _host((sensed.y, begun.keys, sensed.t))
         t_s, live = float(t_s), self.live()
         replies = self.fleet.exchange({self.names[i]: {"type": protocol.SENSE, "k": p, "t": t_s,
                                                        "y": {q: y[q][..., i].tolist() for q in y}} for i in live},
@@ -313,7 +320,7 @@ class _Loop:
         outbox = self.silence.outbox(replies)
         if self.net_state is None:  # the history before t = 0 is the first outbox
             self.net_state = _network_init(self.view, outbox)
-        msg, weight, own, self.net_state, net_record = _deliver(self.view, tick, outbox, self.net_state, net_key,
+        msg, weight, own, self.net_state, net_record = _deliver(self.view, tick, outbox, self.net_state, sensed.key,
                                                                 own=self.reads_own)
         msg, weight, own = self.links.silence(*_host((msg, weight, own)), live)
         mine = self.links.mine
@@ -330,7 +337,7 @@ class _Loop:
         self.timing.misses += [(p, i) for i in sorted(late)]
         cmd, ctrl_record = self.silence.commands(replies, self.command_shapes, self.record_specs,
                                                  {self.names[i] for i in late})
-        return cmd, {**measured, **net_record, **ctrl_record}
+        return cmd, {**sensed.measured, **net_record, **ctrl_record}
 
 
 def _apply_faults(plan, p, period_s, fleet, events):
@@ -374,13 +381,13 @@ def run_loop(built, system, fleet, controller, n_records, *, handshake_s, faults
     progress : callable, optional
         Called with the records done so far after each record.
     """
-    (x, st, acc, tick), y0 = jax.jit(_initial_parts)(system)
+    state, y0 = jax.jit(stepping.initial_parts)(system)
     loop = _Loop(built, system, fleet, controller, hold_commands, blank_outbox(controller, y0, len(built.names)))
     view, ppr = loop.view, system.structure.periods_per_record
     period_s = float(system.period_s)
     fleet.handshake(setup_messages(built, system, controller, y0, loop.replies), handshake_s)
     plan, events, chunks = _schedule(faults, period_s), Events(), []
-    begun = _begin(view, x, st, tick, loop.reads)
+    begun = _begin(view, state, loop.reads)
     t0, compile_s = time.perf_counter(), 0.0
     slot_s, due = (period_s / realtime if realtime else None), None
     for p in range(n_records * ppr + 1):
@@ -390,17 +397,17 @@ def run_loop(built, system, fleet, controller, n_records, *, handshake_s, faults
             schedule = time.monotonic() - slot_s  # period p starts at schedule + p slots
         if slot_s and p >= 1:
             due = _pace(schedule + p * slot_s, slot_s, loop.timing)
-        cmd, record = loop.control(p, tick, begun, due)
-        t, _, st, _, truth, key, _, _ = begun
+        cmd, record = loop.control(p, state.tick, begun, due)
         if p == n_records * ppr:
-            last = _host(_final(view, x, st, acc, truth, t, key, cmd, record))
+            last = _host(_final(view, state, begun.sensed, cmd, record))
             break
-        acc_before = acc
-        (x, acc, tick, record), begun = _end_begin(view, x, st, acc, tick, t, key, cmd, record, loop.reads)
-        if p % ppr == 0:  # a record interval starts: its sample (as coopsat.sim.programs._block)
-            start, acc_start = {**truth, **acc_before, **record}, acc_before
+        before = state
+        state, record, begun = _end_begin(view, state, begun.sensed, cmd, record, loop.reads)
+        if p % ppr == 0:  # a record interval starts: its state and first record make its sample
+            start, start_record = before, record
         if p % ppr == ppr - 1:
-            chunks.append(_host({**start, **_interval_means(view, acc_start, acc)}))
+            means = _interval_means(view, start.counters, state.counters)
+            chunks.append(_host(stepping.sample(stepping.truth(view, start.x), start.counters, start_record, means)))
             if progress is not None:
                 progress(len(chunks))
         if p == 0:
@@ -424,10 +431,6 @@ def _pace(start, slot_s, timing):
 def _output(built, system, chunks, last, n_records, compile_s, run_s):
     """The samples as the engine returns them (:class:`~coopsat.sim.engine.RunOutput`),
     checked for non-finite states."""
-    names = list(built.names)
     stacked = {k: np.stack([c[k] for c in chunks]) for k in chunks[0]}
     t_samples = np.arange(n_records + 1) * float(built.record_interval_s)
-    _check_finite(stacked, t_samples, 0, False, names)
-    _check_finite({k: np.expand_dims(v, 0) for k, v in last.items()}, t_samples, n_records, False, names)
-    samples = _assemble(system, [stacked], last, n_records, None)
-    return RunOutput(t_s=t_samples, samples=samples, compile_s=compile_s, run_s=run_s)
+    return run_output(system, stacked, last, t_samples, compile_s=compile_s, run_s=run_s, names=list(built.names))

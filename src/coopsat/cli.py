@@ -119,9 +119,14 @@ def _cmd_run(args):
 
 
 def _cmd_sil(args):
-    from coopsat.workflows.sil.run import sil_command
+    from coopsat.workflows.sil.run import parse_externals, parse_fault, sil_command
 
-    return sil_command(args, out=print, err=lambda line: print(line, file=sys.stderr, flush=True))
+    return sil_command(
+        args.scenario, out_dir=args.out, overrides=args.set, kill=[parse_fault(f, "kill") for f in args.kill],
+        pause=[parse_fault(f, "pause") for f in args.pause], externals=parse_externals(args.external),
+        fault_command=args.fault_command, realtime=args.realtime, answer_s=args.answer_timeout,
+        handshake_s=args.start_timeout, figures=bool(args.figures), report=not args.no_report, quiet=args.quiet,
+        err=lambda line: print(line, file=sys.stderr, flush=True))
 
 
 def _cmd_report(args):

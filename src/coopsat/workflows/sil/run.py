@@ -12,6 +12,7 @@ entry per kill, pause and resume, at its simulated time), so the run folder writ
 import json
 import re
 
+from coopsat.plugins.protocols import optional
 from coopsat.workflows import interrupt
 from coopsat.workflows.sil.loop import Fault
 from coopsat.workflows.sil.processes import builtin_command, external_command
@@ -38,7 +39,7 @@ def per_spacecraft_form(controller, kind):
     """
     if all(hasattr(controller, a) for a in ("reads", "outbox_one", "step_one")):
         return controller
-    why = getattr(controller, "per_spacecraft_refusal", None) or (
+    why = optional(controller, "per_spacecraft_refusal") or (
         "its step computes every spacecraft's command at once (sums over the whole formation's links) and it offers "
         "no per-spacecraft form (reads, outbox_one, step_one; docs/sil.md)")
     raise SILSetupError(f"controller kind '{kind}' cannot be split per spacecraft: {why}")
@@ -108,11 +109,12 @@ def parse_externals(assignments):
     return externals
 
 
-def sil_command(args, out, err):
-    """``coopsat sil``: run, write the folder, report; ``args`` the parsed options
-    (:mod:`~coopsat.workflows.sil.options`), ``out``/``err`` print a line to stdout/stderr
-    (with ``--quiet`` only warnings: errors are the caller's to print). Returns the exit
-    status (0)."""
+def sil_command(scenario, *, out_dir, overrides=(), kill=(), pause=(), externals=None, fault_command=None, realtime=None,
+                answer_s=ANSWER_S, handshake_s=HANDSHAKE_S, figures=False, report=True, quiet=False, out=print, err=print):
+    """``coopsat sil``: run, write the folder ``out_dir``, report. The options are :func:`sil`'s,
+    as the command parsed them (fault records, ``{spacecraft: command}``); ``out``/``err`` print
+    a line to stdout/stderr (with ``quiet`` only warnings: errors are the caller's to print).
+    Returns the exit status (0)."""
     import jax
 
     from coopsat.workflows.pipeline import check_run_folder, run_and_save, summary_lines
@@ -120,24 +122,22 @@ def sil_command(args, out, err):
     # A few small programs per control period: inline on the CPU they cost half as much (set
     # before JAX's CPU client starts; the command's process is coopsat's own).
     jax.config.update("jax_cpu_enable_async_dispatch", False)
-    check_run_folder(args.out)
-    on_start = None if args.quiet else (
+    check_run_folder(out_dir)
+    on_start = None if quiet else (
         lambda pids: err("sil: flight software " + ", ".join(f"{n} pid {p}" for n, p in pids.items())))
     result = run_and_save(
-        lambda: sil(args.scenario, overrides=args.set, kill=[parse_fault(f, "kill") for f in args.kill],
-                    pause=[parse_fault(f, "pause") for f in args.pause],
-                    externals=parse_externals(args.external), fault_command=args.fault_command, realtime=args.realtime,
-                    answer_s=args.answer_timeout, handshake_s=args.start_timeout,
+        lambda: sil(scenario, overrides=overrides, kill=kill, pause=pause, externals=externals,
+                    fault_command=fault_command, realtime=realtime, answer_s=answer_s, handshake_s=handshake_s,
                     on_warning=lambda note: err(f"warning: {note}"), on_start=on_start),
-        args.out, figures=bool(args.figures), report=not args.no_report)
-    if args.quiet:
+        out_dir, figures=figures, report=report)
+    if quiet:
         return 0
-    out(f"wrote {args.out}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
+    out(f"wrote {out_dir}  (compile {result.compile_s:.2f} s, run {result.run_s:.2f} s)")
     for e in json.loads(result.dataset.attrs["sil_events"]):
         out(f"  sil: {e['spacecraft']} {e['event']} at t = {e['t_s']:g} s")
     if "sil_deadline_misses" in result.dataset:
         out("  sil: " + realtime_line(result.dataset))
-    for line in summary_lines(_Summary(result, args.out)):
+    for line in summary_lines(_Summary(result, out_dir)):
         out(line)
     return 0
 

@@ -131,7 +131,8 @@ def tune_front(ref, rows, coordinates, max_iter=100, report=None):
     for k in pareto_front(settle, [_finite(r.get("fuel_l1_ns")) for r in series]):
         r = series[k]
         res = tune(
-            ref, "fuel_l1_ns", [f"settling_time_s<={settle[k]:g}", f"closed_loop_spectral_radius<={TUNED_RADIUS_MAX}"],
+            # the settling bound to 6 digits, as the table prints it
+            ref, "fuel_l1_ns", {"settling_time_s": float(f"{settle[k]:g}"), "closed_loop_spectral_radius": TUNED_RADIUS_MAX},
             ["controller.gain"], max_iter=max_iter, report=report or (lambda line: None),
             overrides=[f"controller.force_scale_n={r['force_scale_n']!r}", f"controller.coordinates={coordinates!r}",
                        'controller.architecture="decentralized"'],

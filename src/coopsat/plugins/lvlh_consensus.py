@@ -63,9 +63,9 @@ def laplacian_modes(adjacency, masses_kg):
         ``A[i, j]``: the weight with which i hears j.
     masses_kg : (n,)
     """
-    a = np.asarray(adjacency, dtype=float)
-    lap = np.diag(a.sum(axis=1)) - a
-    mu = np.linalg.eigvals(lap / np.asarray(masses_kg, dtype=float)[:, None])
+    from coopsat.network.topology import laplacian
+
+    mu = np.linalg.eigvals(laplacian(adjacency) / np.asarray(masses_kg, dtype=float)[:, None])
     return mu[np.argsort(np.abs(mu))]
 
 

@@ -1,6 +1,7 @@
 """Sensors (``[[sensors]]``): star tracker, rate gyro, navigation (position / velocity) noise,
-relative position between spacecraft, relative navigation in the chief's LVLH frame, and the
-sun sensor and magnetometer of an Earth orbit.
+relative position between spacecraft, relative navigation in the chief's LVLH frame, a GNSS
+receiver, an inter-satellite range / range-rate link, and the sun sensor and magnetometer of an
+Earth orbit.
 
 Each table replaces one quantity the flight software reads by what a sensor measures; a
 quantity no sensor measures is read perfectly. Every sensor may update more slowly than the
@@ -100,6 +101,43 @@ class RelativeNavigation(Table):
     period_s: float | None = _PERIOD
 
 
+class Gnss(Table):
+    """``kind = "gnss"``: each spacecraft's own ECI position and velocity fix with white, own
+    Gauss–Markov and common Gauss–Markov errors (needs ``[orbit]``)."""
+
+    kind: Literal["gnss"]
+    sigma_m: PerAxis = Field(0.0, description="Standard deviation of the white position error per ECI axis, m.")
+    sigma_m_s: PerAxis = Field(0.0, description="Standard deviation of the white velocity error per ECI axis, m/s.")
+    own_sigma_m: PerAxis = Field(
+        0.0, description="Stationary standard deviation of each receiver's own Gauss–Markov position error per ECI axis, m."
+    )
+    own_sigma_m_s: PerAxis = Field(
+        0.0, description="Stationary standard deviation of each receiver's own Gauss–Markov velocity error per ECI axis, m/s."
+    )
+    own_tau_s: float = Field(600.0, gt=0, le=1e9, description="Correlation time of each receiver's own error, s.")
+    common_sigma_m: PerAxis = Field(
+        0.0, description="Stationary standard deviation of the Gauss–Markov position error every receiver shares, per ECI axis, m."
+    )
+    common_sigma_m_s: PerAxis = Field(
+        0.0, description="Stationary standard deviation of the Gauss–Markov velocity error every receiver shares, per ECI axis, m/s."
+    )
+    common_tau_s: float = Field(1800.0, gt=0, le=1e9, description="Correlation time of the common error, s.")
+    period_s: float | None = _PERIOD
+
+
+class IslRange(Table):
+    """``kind = "isl-range"``: each spacecraft's range and range-rate to one target spacecraft (needs ``[orbit]``)."""
+
+    kind: Literal["isl-range"]
+    to: str = Field(description="The target spacecraft every other measures its range and range-rate to.")
+    sigma_m: float = Field(0.0, ge=0, description="Standard deviation of the white range noise, m.")
+    sigma_m_s: float = Field(0.0, ge=0, description="Standard deviation of the white range-rate noise, m/s.")
+    bias_m: float = Field(0.0, description="Constant range bias, m (every spacecraft).")
+    bias_m_s: float = Field(0.0, description="Constant range-rate bias, m/s (every spacecraft).")
+    max_range_m: float | None = Field(None, gt=0, description="Longest range of a valid link, m (default: no limit).")
+    period_s: float | None = _PERIOD
+
+
 class SunSensor(Table):
     """``kind = "sun-sensor"``: the direction to the Sun in body axes, none in the Earth's shadow (needs an Earth ``[orbit]``)."""
 
@@ -119,7 +157,7 @@ class Magnetometer(Table):
 
 _QUANTITY = {
     "star-tracker": "q", "gyro": "omega", "position-noise": "r_eci", "velocity-noise": "v_eci", "relative-position": "rho",
-    "relative-navigation": "x_lvlh", "sun-sensor": "sun_b", "magnetometer": "b_b",
+    "relative-navigation": "x_lvlh", "gnss": "gnss", "isl-range": "isl", "sun-sensor": "sun_b", "magnetometer": "b_b",
 }
 """The measured quantity each kind replaces."""
 
@@ -141,7 +179,7 @@ def _every(table, ctx):
             raise DesignError(
                 f"{where}: measures {quantity} like sensors[{k}]; give one sensor per measured quantity"
             )
-    if quantity in ("r_eci", "v_eci", "rho", "x_lvlh") and ctx.scenario.orbit is None:
+    if quantity in ("r_eci", "v_eci", "rho", "x_lvlh", "gnss", "isl") and ctx.scenario.orbit is None:
         raise DesignError(
             f'{where}: kind = "{table.kind}" measures {quantity}, which needs an [orbit] table (this run is attitude only)'
         )
@@ -225,6 +263,33 @@ def _build_relative_navigation(table, ctx):
     return Part(*as_arrays((sigma, np.int32(chief))), every=every)
 
 
+def _build_gnss(table, ctx):
+    from coopsat.sensors.navigation_sensors import Gnss as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    arrays = (
+        np.concatenate([_per_axis(table.sigma_m), _per_axis(table.sigma_m_s)]),
+        np.concatenate([_per_axis(table.own_sigma_m), _per_axis(table.own_sigma_m_s)]), table.own_tau_s,
+        np.concatenate([_per_axis(table.common_sigma_m), _per_axis(table.common_sigma_m_s)]), table.common_tau_s,
+        ctx.period_s,
+    )
+    return Part(*as_arrays(arrays), every=every)
+
+
+def _build_isl_range(table, ctx):
+    from coopsat.sensors.navigation_sensors import IslRange as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    target = ctx.index(table.to, f"{_place(table, ctx)}.to")
+    max_range_m = np.inf if table.max_range_m is None else table.max_range_m
+    arrays = (
+        np.array([table.sigma_m, table.sigma_m_s]), np.array([table.bias_m, table.bias_m_s]), np.int32(target), max_range_m,
+    )
+    return Part(*as_arrays(arrays), every=every)
+
+
 def _build_sun_sensor(table, ctx):
     from coopsat.plugins.earth_environment import epoch
     from coopsat.sensors.environment_sensors import SunSensor as Part
@@ -249,5 +314,7 @@ register(Plugin("sensor", "position-noise", PositionNoise, _build_navigation))
 register(Plugin("sensor", "velocity-noise", VelocityNoise, _build_navigation))
 register(Plugin("sensor", "relative-position", RelativePosition, _build_relative))
 register(Plugin("sensor", "relative-navigation", RelativeNavigation, _build_relative_navigation))
+register(Plugin("sensor", "gnss", Gnss, _build_gnss))
+register(Plugin("sensor", "isl-range", IslRange, _build_isl_range))
 register(Plugin("sensor", "sun-sensor", SunSensor, _build_sun_sensor))
 register(Plugin("sensor", "magnetometer", Magnetometer, _build_magnetometer))

@@ -1,0 +1,247 @@
+"""Navigation sensors of an orbit: a GNSS receiver and an inter-satellite range / range-rate link.
+
+Both read a derived quantity (sensor protocol as in :mod:`coopsat.sensors.parts`), its truth
+computed from the plant state, component-major ``(k, n)``, spacecraft last:
+
+* ``"gnss"`` (6, n): each spacecraft's own absolute fix, ECI (GCRF): rows ``x, y, z`` (m) and
+  ``vx, vy, vz`` (m/s);
+* ``"isl"`` (3, n): each spacecraft's range (m) and range-rate (m/s) to one target spacecraft
+  and whether the link is valid (1/0).
+
+GNSS error model, per component::
+
+    reading_i = truth_i + common(t) + own_i(t) + white_i
+
+``white_i`` is white Gaussian noise; ``own_i`` is a first-order Gauss–Markov process per
+receiver; ``common`` is one Gauss–Markov process shared by every receiver of the run (the
+errors of nearby receivers: ephemeris, clock, atmosphere). The difference of two receivers'
+readings taken at the same instant therefore has no common error at all: relative navigation
+by differencing two fixes sees only the own and white errors.
+
+Noise comes only from the key given to ``measure``: every term folds its own tag into it,
+spacecraft i draws from ``fold_in(key, i)`` (:func:`coopsat.core.parts.per_spacecraft_normal`)
+so its draws do not depend on the formation size, and the common term is drawn once per call,
+not per spacecraft. A run replays bit for bit from its seed.
+"""
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from coopsat.core.parts import OutputSpec, part, per_spacecraft_normal
+from coopsat.sensors.noise import white_noise
+
+# Tags folded into the sensor's key, one per noise term, so the terms never share draws.
+_WHITE = 1
+_OWN = 2
+_COMMON = 3
+
+
+class GnssState(NamedTuple):
+    """The GNSS receiver's Gauss–Markov errors as of its last call.
+
+    Attributes
+    ----------
+    common : (6,)
+        The error every receiver shares: position (m) and velocity (m/s), ECI.
+    own : (6, n)
+        Each receiver's own error, m and m/s, ECI.
+    started : bool scalar
+        Whether ``measure`` has been called: the first call draws the errors from their
+        stationary distribution instead of stepping them.
+    """
+
+    common: jax.Array
+    own: jax.Array
+    started: jax.Array
+
+
+def gauss_markov_step(e, nu, sigma, tau_s, step_s, started):
+    """One step of a stationary first-order Gauss–Markov process.
+
+    ``e ← φ e + σ √(1 − φ²) ν`` with ``φ = exp(−T/τ)``, or ``e = σ ν`` (a draw from the
+    stationary distribution) when the process has not ``started``.
+
+    Parameters
+    ----------
+    e : (6,) or (6, n)
+        Error at the previous step, in the units of ``sigma``.
+    nu : same shape as ``e``
+        Standard normal draws of this step.
+    sigma : (6,)
+        Stationary standard deviation per component (broadcast over any spacecraft axis).
+    tau_s : scalar
+        Correlation time τ, s (> 0).
+    step_s : scalar
+        Step T, s.
+    started : bool scalar
+
+    Returns
+    -------
+    jax.Array, shape of ``e``
+    """
+    sigma = jnp.reshape(sigma, sigma.shape + (1,) * (e.ndim - 1))
+    phi = jnp.exp(-step_s / tau_s)
+    # 1 − φ² as −expm1(−2T/τ): exact to rounding when T ≪ τ, where 1 − φ² would cancel.
+    stepped = phi * e + sigma * jnp.sqrt(-jnp.expm1(-2.0 * step_s / tau_s)) * nu
+    return jnp.where(started, stepped, sigma * nu)
+
+
+@part(static=("every",))
+class Gnss:
+    """GNSS receiver: each spacecraft's own ECI position and velocity with white noise, its own
+    Gauss–Markov error and a Gauss–Markov error common to every receiver of the run.
+
+    The reading is ``(6, n)``: rows ``x, y, z`` (m) and ``vx, vy, vz`` (m/s), ECI (GCRF).
+    Each call of ``measure`` (every control period, also between the updates of a slow
+    receiver) steps both Gauss–Markov processes by ``step_s`` and reads
+    ``truth + common + own + white``; the first call draws them from their stationary
+    distribution, so the errors are stationary from t = 0.
+
+    Attributes
+    ----------
+    sigma : (6,)
+        Standard deviation of the white noise, m (position) and m/s (velocity), per ECI axis.
+    own_sigma : (6,)
+        Stationary standard deviation of each receiver's own Gauss–Markov error, m and m/s.
+    own_tau_s : scalar
+        Correlation time of the own error, s (> 0).
+    common_sigma : (6,)
+        Stationary standard deviation of the common Gauss–Markov error, m and m/s.
+    common_tau_s : scalar
+        Correlation time of the common error, s (> 0).
+    step_s : scalar
+        Time between two calls of ``measure``, s: the control period.
+    every : int
+        Static: control periods between updates (the reading is held in between).
+    """
+
+    sigma: jnp.ndarray
+    own_sigma: jnp.ndarray
+    own_tau_s: jnp.ndarray
+    common_sigma: jnp.ndarray
+    common_tau_s: jnp.ndarray
+    step_s: jnp.ndarray
+    every: int = 1
+
+    quantity = "gnss"
+    needs = ("r_eci", "v_eci")
+
+    def truth(self, y, x, t=0.0):
+        """True ECI position (m) and velocity (m/s) from the plant state, (6, n)."""
+        return jnp.concatenate([x.r_eci, x.v_eci], axis=0)
+
+    def init(self, truth_value, n):
+        """Zero errors, not yet started (:class:`GnssState`)."""
+        return GnssState(jnp.zeros(6), jnp.zeros((6, n)), jnp.zeros((), dtype=bool))
+
+    def measure(self, truth_value, x, state, key):
+        """The fixes (6, n), m and m/s, ECI, and the errors after this call."""
+        n = truth_value.shape[-1]
+        # One draw for the whole run's receivers: the common error is the same for all.
+        nu_common = jax.random.normal(jax.random.fold_in(key, _COMMON), (6,))
+        common = gauss_markov_step(
+            state.common, nu_common, self.common_sigma, self.common_tau_s, self.step_s, state.started
+        )
+        nu_own = per_spacecraft_normal(jax.random.fold_in(key, _OWN), 6, n)
+        own = gauss_markov_step(state.own, nu_own, self.own_sigma, self.own_tau_s, self.step_s, state.started)
+        value = white_noise(truth_value + common[:, None] + own, jax.random.fold_in(key, _WHITE), self.sigma)
+        return value, GnssState(common, own, jnp.ones((), dtype=bool))
+
+    def output_specs(self):
+        return {
+            "measured_gnss": OutputSpec(
+                ("gnss_component",), "m, m/s", "ECI",
+                "position (x, y, z in m) and velocity (vx, vy, vz in m/s) as fixed by the spacecraft's GNSS receiver, "
+                "at the sample",
+                coords=(("gnss_component", ("x", "y", "z", "vx", "vy", "vz")),),
+            )
+        }
+
+
+def range_and_rate(r_eci, v_eci, target):
+    """Every spacecraft's range and range-rate to one target spacecraft.
+
+    Parameters
+    ----------
+    r_eci, v_eci : (3, n)
+        Positions (m) and velocities (m/s), ECI.
+    target : int scalar
+        Index of the target spacecraft.
+
+    Returns
+    -------
+    range_m : (n,)
+        ``|r_target − r_i|``, m; 0 for the target itself.
+    range_rate_m_s : (n,)
+        ``d|ρ|/dt = ρ · (v_target − v_i) / |ρ|``, m/s; 0 for the target itself.
+    """
+    rho = r_eci[:, target][:, None] - r_eci
+    rho_dot = v_eci[:, target][:, None] - v_eci
+    is_target = jnp.arange(r_eci.shape[-1]) == target
+    # The target's own ρ is zero: take the norm of 1 there, so neither the value nor its
+    # gradient is NaN.
+    distance = jnp.sqrt(jnp.where(is_target, 1.0, jnp.sum(rho**2, axis=0)))
+    rate = jnp.sum(rho * rho_dot, axis=0) / distance
+    return jnp.where(is_target, 0.0, distance), jnp.where(is_target, 0.0, rate)
+
+
+@part(static=("every",))
+class IslRange:
+    """Inter-satellite link: each spacecraft's range and range-rate to one target spacecraft,
+    with constant biases and white noise.
+
+    The reading is ``(3, n)``: rows range (m), range-rate (m/s) and ``valid`` (1/0). The link is
+    invalid (its row zero) for the target itself and beyond ``max_range_m``.
+
+    Attributes
+    ----------
+    sigma : (2,)
+        Standard deviation of the white noise of the range (m) and range-rate (m/s).
+    bias : (2,)
+        Constant bias of the range (m) and range-rate (m/s), every spacecraft.
+    target : int scalar
+        Index of the target spacecraft.
+    max_range_m : scalar
+        Longest range of a valid link, m (``inf``: no limit).
+    every : int
+        Static: control periods between updates.
+    """
+
+    sigma: jnp.ndarray
+    bias: jnp.ndarray
+    target: jnp.ndarray
+    max_range_m: jnp.ndarray
+    every: int = 1
+
+    quantity = "isl"
+    needs = ("r_eci", "v_eci")
+
+    def truth(self, y, x, t=0.0):
+        """True range (m), range-rate (m/s) and ``valid`` from the plant state, (3, n); zero
+        where the link is invalid."""
+        distance, rate = range_and_rate(x.r_eci, x.v_eci, self.target)
+        n = distance.shape[-1]
+        valid = ((jnp.arange(n) != self.target) & (distance <= self.max_range_m)).astype(distance.dtype)
+        return jnp.stack([distance * valid, rate * valid, valid])
+
+    def init(self, truth_value, n):
+        return ()
+
+    def measure(self, truth_value, x, state, key):
+        """The noisy range and range-rate where the link is valid, (3, n)."""
+        valid = truth_value[2:]
+        noisy = white_noise(truth_value[:2] + self.bias[:, None], key, self.sigma)
+        # where, not a product: an invalid link reads +0.0, not the noise's sign of zero.
+        return jnp.concatenate([jnp.where(valid > 0.0, noisy, 0.0), valid], axis=0), state
+
+    def output_specs(self):
+        return {
+            "measured_isl": OutputSpec(
+                ("isl_component",), "m, m/s, 1", "",
+                "range (m) and range-rate (m/s) to the target spacecraft as measured over the inter-satellite link, "
+                "and whether the link was valid (1/0), at the sample",
+                coords=(("isl_component", ("range", "range_rate", "valid")),),
+            )
+        }

@@ -69,8 +69,24 @@ def test_no_control_per_spacecraft_form_is_empty():
     assert one.step(0.0, y, _ring_inbox(), law.init(N), jax.random.PRNGKey(0)) == ({}, (), {})
 
 
-def test_lvlh_pd_offers_no_per_spacecraft_form_and_says_why():
-    """It reads the chief's measured orbit directly: software in the loop quotes the reason."""
-    assert not any(hasattr(LvlhPd, a) for a in ("reads", "outbox_one", "step_one"))
-    why = LvlhPd.per_spacecraft_refusal
-    assert why[0].islower() and not why.endswith(".") and "chief" in why
+@pytest.mark.parametrize("jit", [False, True])
+def test_lvlh_pd_per_spacecraft_form_equals_the_formation_step(jit):
+    """On a measured relative state ``x_lvlh`` (a sensor's or a filter's), spacecraft by
+    spacecraft, before and after ``start_s``: the force and the record bit for bit; the chief
+    (spacecraft 0) commands nothing."""
+    rng = np.random.default_rng(3)
+    targets = rng.normal(size=(3, N)) * 50.0
+    targets[:, 0] = 0.0
+    law = LvlhPd(*as_arrays((2e-3, 0.25, targets, 10.0)))
+    one = as_flight_software(OneByOne(law), N)
+    whole_step, split_step = (jax.jit(f) if jit else f for f in (law.step, one.step))
+    assert law.reads == ("x_lvlh",) and law.outbox({}, ()) == {}
+    for t in (0.0, 10.0, 25.0):
+        y = {"x_lvlh": jnp.asarray(rng.normal(size=(6, N)) * np.array([100.0] * 3 + [0.1] * 3)[:, None])}
+        c_whole, _, r_whole = whole_step(t, y, _ring_inbox(), (), jax.random.PRNGKey(0))
+        c_split, _, r_split = split_step(t, y, _ring_inbox(), (), jax.random.PRNGKey(0))
+        force = np.asarray(c_whole["force_lvlh"])
+        assert np.all(force[:, 0] == 0.0) and (np.any(force != 0.0) == (t >= 10.0))
+        np.testing.assert_array_equal(np.asarray(c_split["force_lvlh"]), force)
+        for v in r_whole:
+            np.testing.assert_array_equal(np.asarray(r_split[v]), np.asarray(r_whole[v]), err_msg=v)

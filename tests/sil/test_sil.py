@@ -223,13 +223,14 @@ def test_the_delayed_network_equals_the_compiled_loop(tmp_path, name):
 
 
 def test_a_controller_that_cannot_be_split_is_refused_saying_why():
-    """LVLH station keeping: each deputy's law reads the chief's measurement directly, not
-    through the network (the part says so)."""
+    """LVLH station keeping without a relative-navigation sensor or a filter: its per-spacecraft
+    form reads a relative state that nothing in the run measures."""
     s = coopsat.Scenario.load("cartwheel-keeping-ground").set("published", []).set("sim.t_final_s", 100.0)
     s = s.update({"controller": {"kind": "lvlh-pd", "period_s": 1.0, "k_p": 1e-3, "k_d": 0.1,
                                  "rho_target_lvlh_m": [0.0, 100.0, 0.0]}})
-    with pytest.raises(SILSetupError, match="^controller kind 'lvlh-pd' cannot be split per spacecraft: each deputy's law "
-                                       "reads the chief's measured orbit directly, not through the network"):
+    s = s.set("sensors", [])
+    with pytest.raises(SILSetupError, match="^controller kind 'lvlh-pd' cannot be split per spacecraft: its per-spacecraft "
+                                       "form reads x_lvlh, which nothing in this run measures"):
         sil(s)
 
 

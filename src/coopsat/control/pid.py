@@ -175,11 +175,6 @@ class LvlhPd:
     start_s: jnp.ndarray
 
     commands = ("force_lvlh",)
-    # No per-spacecraft form: software in the loop says why in its refusal.
-    per_spacecraft_refusal = (
-        "each deputy's law reads the chief's measured orbit directly, not through the network, so one spacecraft's "
-        "flight software cannot compute it alone"
-    )
 
     def init(self, n):
         return ()
@@ -188,13 +183,36 @@ class LvlhPd:
         return {}
 
     def step(self, t, y, inbox, state, key):
-        """Force ``force_lvlh`` (3, n), N; records it and the relative state."""
-        r, v = y["r_eci"], y["v_eci"]
-        c = slice(CHIEF, CHIEF + 1)
-        rho, rho_dot = eci_to_lvlh(r[:, c], v[:, c], r, v, 0)
+        """Force ``force_lvlh`` (3, n), N; records it and the relative state.
+
+        The relative state is the measured ``x_lvlh`` where the run measures it (a
+        relative-navigation sensor, a navigation filter), else it is formed from the measured
+        ECI states of the chief and the deputy."""
+        if "x_lvlh" in y:
+            rho, rho_dot = y["x_lvlh"][:3], y["x_lvlh"][3:]
+        else:
+            r, v = y["r_eci"], y["v_eci"]
+            c = slice(CHIEF, CHIEF + 1)
+            rho, rho_dot = eci_to_lvlh(r[:, c], v[:, c], r, v, 0)
         f = lvlh_pd_force(rho, rho_dot, self.rho_target_lvlh, self.k_p, self.k_d)
         f = jnp.where((jnp.arange(f.shape[-1]) == CHIEF) | (t < self.start_s), 0.0, f)
         return {"force_lvlh": f}, state, {"force_command": f, "rho_lvlh": rho, "rho_dot_lvlh": rho_dot}
+
+    # The per-spacecraft form (software in the loop, a navigation filter): spacecraft i reads its
+    # own state relative to the chief, ``x_lvlh`` (6,), which a sensor or a filter provides.
+    reads = ("x_lvlh",)
+
+    def outbox_one(self, i, y_i, state_i):
+        """Spacecraft i broadcasts nothing."""
+        return {}
+
+    def step_one(self, i, t, y_i, inbox_i, state_i, key_i):
+        """Spacecraft i's ``force_lvlh`` (3,), N, from its relative state ``x_lvlh`` (6,); records
+        as :meth:`step`. The same elementwise arithmetic as :meth:`step`'s column i."""
+        rho, rho_dot = y_i["x_lvlh"][:3], y_i["x_lvlh"][3:]
+        f = lvlh_pd_force(rho, rho_dot, self.rho_target_lvlh[:, i], self.k_p, self.k_d)
+        f = jnp.where((i == CHIEF) | (t < self.start_s), 0.0, f)
+        return {"force_lvlh": f}, state_i, {"force_command": f, "rho_lvlh": rho, "rho_dot_lvlh": rho_dot}
 
     def targets_lvlh(self):
         """Where each spacecraft should be relative to the chief, the chief's LVLH frame, m,

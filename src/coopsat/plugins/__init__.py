@@ -57,6 +57,7 @@ from coopsat.plugins.protocols import (
     Controller,
     Disturbance,
     LocalController,
+    Navigation,
     NetworkDelivery,
     Sensor,
     Tunables,
@@ -64,7 +65,7 @@ from coopsat.plugins.protocols import (
     protocol_problems,
 )
 
-ROLES = ("controller", "actuator", "sensor", "network", "disturbance")
+ROLES = ("controller", "actuator", "sensor", "network", "disturbance", "navigation")
 """Kinds of plug-in, in the order the scenario file's tables appear."""
 
 PLUGIN_MODULES = (
@@ -84,6 +85,7 @@ PLUGIN_MODULES = (
     "coopsat.plugins.earth_environment",
     "coopsat.plugins.orbit_environment",
     "coopsat.plugins.observation",
+    "coopsat.plugins.navigation",
 )
 """Every module of coopsat that registers plug-ins (one line per module)."""
 
@@ -96,8 +98,8 @@ __all__ = [
     "ROLES", "PLUGIN_MODULES", "ENTRY_POINT_GROUP",
     "Plugin", "Origin", "register", "plugins", "plugin_for", "all_kinds", "refresh",
     "PluginError", "DesignError", "DesignCheck", "Tunable", "BuildContext",
-    "Controller", "LocalController", "NetworkDelivery", "Sensor", "Actuator", "Disturbance", "Builder", "Check",
-    "Tunables", "protocol_problems",
+    "Controller", "LocalController", "NetworkDelivery", "Sensor", "Actuator", "Disturbance", "Navigation", "Builder",
+    "Check", "Tunables", "protocol_problems",
     "Table", "Quaternion", "UnitVector", "part", "OutputSpec", "Pulse", "Inbox",
 ]
 

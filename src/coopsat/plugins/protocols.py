@@ -3,12 +3,11 @@
 A *part* is the compiled-loop half of a plug-in: a frozen dataclass registered as a JAX pytree
 (:func:`coopsat.plugins.part`), whose array fields are data (traced, batched by ``vmap``,
 dispersed by a campaign without recompiling) and whose ``static`` fields are hashable
-configuration (part of the compiled program's key). Its builder
-(:class:`Builder`, ``build(table, ctx) -> part``) runs once, at design time, with NumPy; the
-methods below run inside one compiled ``jax.lax.scan`` and must be **pure JAX**: no Python
-side effects, no host callbacks, no Python ``if`` on traced values (``jnp.where``), no Python
-loops over spacecraft or links (vectorise; a loop over a handful of static items, such as
-delay-line slots, is unrolled at trace time and fine).
+configuration (part of the compiled program's key). Its builder (:class:`Builder`,
+``build(table, ctx) -> part``) runs once, at design time, with NumPy; the methods below run
+inside one compiled ``jax.lax.scan`` and must be **pure JAX**: no Python side effects, no host
+callbacks, no Python ``if`` on traced values (``jnp.where``), no Python loops over spacecraft or
+links (vectorise; a loop over a handful of static items is unrolled at trace time and fine).
 
 Conventions shared by every role (docs/architecture.md §3):
 
@@ -58,7 +57,6 @@ if TYPE_CHECKING:  # documentation only: this module imports no JAX
 
 Array = Any
 """A JAX array (traced inside the loop)."""
-
 State = Any
 """A part's state: any pytree of arrays, ``()`` when it has none."""
 
@@ -414,6 +412,33 @@ class Disturbance(Protocol):
         """How each name ``record`` returns appears in the dataset."""
 
 
+@runtime_checkable
+class Navigation(Protocol):
+    """One spacecraft's navigation filter (``[navigation]``), run inside its flight software
+    before the law (:mod:`coopsat.control.navigated`): the law reads the estimate in place of the
+    quantity the filter ``provides`` (``"x_lvlh"``); the filter ``reads`` measured quantities
+    (``("gnss", "isl")``); ``reads_own`` as :attr:`LocalController.reads_own`. Per spacecraft."""
+
+    provides: str
+    reads: tuple[str, ...]
+    reads_own: bool
+
+    def init(self, n: int) -> State:
+        """Every spacecraft's filter state before its first period, spacecraft axis last."""
+
+    def outbox_one(self, i: Array, y_i: Mapping[str, Array], state_i: State) -> dict[str, Array]:
+        """What spacecraft ``i``'s filter broadcasts (names distinct from the law's)."""
+
+    def update_one(self, i: Array, t: Array, y_i: Mapping[str, Array], inbox_i: Inbox, state_i: State, key_i: Array):
+        """The measurement updates at t: (state, the estimate the law reads, record)."""
+
+    def predict_one(self, i: Array, state_i: State, force_lvlh_n: Array) -> State:
+        """The prior at the next period's start under the law's commanded force (3,), N."""
+
+    def output_specs(self) -> dict[str, OutputSpec]:
+        """How each name ``update_one`` records appears in the dataset (per spacecraft)."""
+
+
 @dataclasses.dataclass(frozen=True)
 class OptionalMember:
     """An attribute a part of ``roles`` may define; a part without it behaves as ``default``.
@@ -476,6 +501,7 @@ PROTOCOLS = {
     "sensor": Sensor,
     "network": NetworkDelivery,
     "disturbance": Disturbance,
+    "navigation": Navigation,
 }
 """Each role's protocol (a controller part with ``local = True`` follows :class:`LocalController`)."""
 

@@ -156,6 +156,7 @@ def scenario_tables(scenario):
         *[("sensor", f"sensors[{k}]", t) for k, t in enumerate(scenario.sensors)],
         *[("actuator", place, t) for place, t in zip(act_places, acts)],
         *[("disturbance", f"disturbances[{k}]", t) for k, t in enumerate(scenario.disturbances)],
+        *[("navigation", "navigation", t) for t in [scenario.navigation] if t is not None],
     ]
 
 
@@ -271,7 +272,7 @@ def _context(scenario):
 def _build_parts(scenario, ctx):
     """Every plug-in's in-loop part, by role, in the order of :func:`scenario_tables`, the
     plug-ins themselves, and their design-time checks by name."""
-    parts = {"controller": [], "network": [], "sensor": [], "actuator": [], "disturbance": []}
+    parts = {"controller": [], "network": [], "sensor": [], "actuator": [], "disturbance": [], "navigation": []}
     used, checks = [], {}
     for role, place, table in scenario_tables(scenario):
         plugin = plugin_for(role, table)
@@ -286,7 +287,24 @@ def _build_parts(scenario, ctx):
             raise ScenarioError(str(err)) from None
         used.append(plugin)
     _check_sensed_quantities(scenario, parts["sensor"], parts["actuator"])
+    if parts["navigation"]:
+        parts["controller"] = [_navigated(parts["navigation"][0], parts["controller"][0], scenario.controller.kind)]
     return parts, used, checks
+
+
+def _navigated(navigation, law, kind):
+    """The flight software that flies ``law`` on ``navigation``'s estimate
+    (:mod:`coopsat.control.navigated`)."""
+    from coopsat.control.navigated import Navigated
+
+    if not all(hasattr(law, a) for a in ("reads", "outbox_one", "step_one")) or navigation.provides not in law.reads:
+        raise ScenarioError(
+            f"navigation: controller kind '{kind}' does not read {navigation.provides} in a per-spacecraft form, so it "
+            f"cannot fly on the filter's estimate"
+        )
+    if "force_lvlh" not in law.commands:
+        raise ScenarioError(f"navigation: the filter carries its estimate under force_lvlh, which controller kind '{kind}' does not command")
+    return Navigated(navigation, law)
 
 
 def _system(scenario, ctx, rv, parts):

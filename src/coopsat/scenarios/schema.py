@@ -99,6 +99,7 @@ Actuator = _union("actuator")
 Delivery = _union("network")
 Sensor = _union("sensor")
 Disturbance = _union("disturbance")
+Navigation = _union("navigation")
 
 
 class Sim(Table):
@@ -430,6 +431,7 @@ class Scenario(Table):
     )
     sensors: list[Sensor] = Field([], description="[[sensors]]: each replaces one measured quantity by a sensor's reading.")
     disturbances: list[Disturbance] = Field([], description="[[disturbances]]: environment forces and torques.")
+    navigation: Navigation | None = Field(None, description="[navigation]: the law flies on each spacecraft's estimate.")
     sil: Sil = Sil()
     analysis: Analysis = Analysis()
     published: list[Published] = []

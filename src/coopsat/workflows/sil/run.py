@@ -28,21 +28,39 @@ processes starting together on two cores take about a minute)."""
 _FAULT = re.compile(r"^(?P<name>[^@]+)@(?P<t>[^:]+)(?::(?P<d>.+))?$")
 
 
-def per_spacecraft_form(controller, kind):
+def per_spacecraft_form(controller, kind, measured=None):
     """The controller as one flight software per spacecraft: the part itself when it is local or
-    offers a per-spacecraft form (``reads``, ``outbox_one``, ``step_one``).
+    offers a per-spacecraft form (``reads``, ``outbox_one``, ``step_one``) whose readings the run
+    measures (``measured``: the quantities of the run's state and sensors; None: not checked).
 
     Raises
     ------
     SILSetupError
-        A formation-wide law without a per-spacecraft form, saying why.
+        A formation-wide law without a per-spacecraft form, saying why, or one that reads what
+        nothing in the run measures.
     """
     if all(hasattr(controller, a) for a in ("reads", "outbox_one", "step_one")):
+        missing = [q for q in controller.reads if measured is not None and q not in measured]
+        if missing:
+            raise SILSetupError(
+                f"controller kind '{kind}' cannot be split per spacecraft: its per-spacecraft form reads "
+                f"{', '.join(missing)}, which nothing in this run measures (a sensor or a [navigation] filter provides it)"
+            )
         return controller
     why = optional(controller, "per_spacecraft_refusal") or (
         "its step computes every spacecraft's command at once (sums over the whole formation's links) and it offers "
         "no per-spacecraft form (reads, outbox_one, step_one; docs/sil.md)")
     raise SILSetupError(f"controller kind '{kind}' cannot be split per spacecraft: {why}")
+
+
+def _measured(built):
+    """The quantities a run's flight software may read: its moving state's and its sensors'."""
+    from coopsat.dynamics.plant import state_quantities
+
+    scenario = built.scenario
+    gravity = "none" if scenario.orbit is None else scenario.orbit.gravity
+    state = state_quantities(scenario.sim.attitude, gravity, (a.channel for a in built.system.actuators))
+    return set(state) | {s.quantity for s in built.system.sensors}
 
 
 def parse_fault(text, kind):
@@ -195,7 +213,7 @@ def sil(scenario, *, overrides=(), seed=None, kill=(), pause=(), externals=None,
         doc = doc.with_seed(seed)
     built = prepare(doc.model)
     names = list(built.names)
-    controller = per_spacecraft_form(built.system.controller, built.scenario.controller.kind)
+    controller = per_spacecraft_form(built.system.controller, built.scenario.controller.kind, _measured(built))
     t_final_s = built.scenario.sim.t_final_s
     faults = [check_fault("kill", f, names, t_final_s) for f in kill] + [check_fault("pause", f, names, t_final_s)
                                                                            for f in pause]

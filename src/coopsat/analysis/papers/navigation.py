@@ -1,0 +1,106 @@
+"""Navigation consistency (``[navigation]``): each spacecraft's estimate against the truth, as an
+engineer checks a Kalman filter.
+
+At every sample, spacecraft i's estimate ``x̂`` (``nav_estimate_lvlh``) and covariance ``P``
+(``nav_covariance_lvlh``) are compared with its true state relative to the chief in the chief's
+LVLH frame (:func:`coopsat.geometry.frames.eci_to_lvlh` of the ECI truth):
+
+* ``nav_error_lvlh`` (series): ``x̂ − x`` (m, m/s); ``nav_sigma_lvlh``: ``√diag P``.
+* ``nees`` (series): ``(x̂ − x)ᵀ P⁻¹ (x̂ − x)``, χ²(6) for a consistent filter; NaN for the chief.
+* ``nees_mean``: its mean over the deputies and the samples after the first
+  (the first is the drawn initial error); ``nees_bound_low``, ``nees_bound_high``: the two-sided
+  95 % band of that mean, ``χ²_{6N}(0.025, 0.975) / N`` with N the number of terms averaged
+  (the samples treated as independent: an approximation, since successive errors correlate).
+  ``nees_consistent``: the mean inside the band.
+* ``nis_mean_gnss`` / ``nis_mean_isl``: the mean normalised innovation squared over the updates
+  recorded (χ²(6) / χ²(2)), with their 95 % bands ``nis_bound_*_{low,high}``.
+* ``nav_position_error_rms_m``, ``nav_velocity_error_rms_m_s``: the RMS estimate error over the
+  deputies and samples; ``nav_position_sigma_mean_m``: the filter's mean claimed position σ.
+
+Across a campaign the run means average again: a run's ``nees_mean`` times its N is χ²(6N).
+"""
+
+import numpy as np
+
+FIGURES = "coopsat.plots.navigation"
+"""Module with the estimate-error and consistency figures."""
+
+_DOF = {"gnss": 6, "isl": 2}
+
+
+def true_relative_state(r_eci, v_eci, chief):
+    """Every spacecraft's true state relative to the chief, the chief's LVLH frame, (T, n, 6).
+
+    Parameters
+    ----------
+    r_eci, v_eci : (T, n, 3)
+        Truth, m and m/s, ECI.
+    chief : int
+    """
+    from coopsat.geometry.frames import eci_to_lvlh
+
+    c = slice(chief, chief + 1)
+    rho, rho_dot = eci_to_lvlh(r_eci[:, c], v_eci[:, c], r_eci, v_eci)
+    return np.concatenate([np.asarray(rho), np.asarray(rho_dot)], axis=-1)
+
+
+def nees(error, covariance):
+    """``eᵀ P⁻¹ e`` for errors (..., 6) and covariances (..., 6, 6)."""
+    return np.einsum("...i,...i->...", error, np.linalg.solve(covariance, error[..., None])[..., 0])
+
+
+def chi2_band(dof, count, level=0.95):
+    """The two-sided ``level`` band of the mean of ``count`` independent χ²(``dof``) values."""
+    from scipy.stats import chi2
+
+    tail = 0.5 * (1.0 - level)
+    return chi2.ppf(tail, dof * count) / count, chi2.ppf(1.0 - tail, dof * count) / count
+
+
+def _deputies(built):
+    chief = int(built.system.controller.navigation.chief)
+    return chief, np.array([i for i in range(len(built.names)) if i != chief])
+
+
+def series(ds, built):
+    """``nav_error_lvlh``, ``nav_sigma_lvlh`` (time, spacecraft, nav_state) and ``nees`` (time,
+    spacecraft), NaN for the chief."""
+    import xarray as xr
+
+    chief, deputies = _deputies(built)
+    truth = true_relative_state(ds["r_eci"].values, ds["v_eci"].values, chief)
+    error = ds["nav_estimate_lvlh"].values - truth
+    cov = ds["nav_covariance_lvlh"].values
+    sigma = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0.0, None))
+    value = np.full(error.shape[:2], np.nan)
+    value[:, deputies] = nees(error[:, deputies], cov[:, deputies])
+    error[:, chief] = np.nan
+    sigma[:, chief] = np.nan
+    dims = ("time", "spacecraft", "nav_state")
+    return {
+        "nav_error_lvlh": xr.DataArray(error, dims=dims, attrs={
+            "units": "m, m/s", "long_name": "navigation estimate minus truth, relative to the chief, the chief's LVLH frame"}),
+        "nav_sigma_lvlh": xr.DataArray(sigma, dims=dims, attrs={
+            "units": "m, m/s", "long_name": "standard deviation the navigation filter claims (square root of its covariance's diagonal)"}),
+        "nees": xr.DataArray(value, dims=("time", "spacecraft"), attrs={
+            "units": "1", "long_name": "normalised estimation error squared (chi-square with 6 dof when consistent)"}),
+    }
+
+
+def metrics(ds, built):
+    chief, deputies = _deputies(built)
+    have = series(ds, built) if "nees" not in ds else {k: ds[k] for k in ("nav_error_lvlh", "nav_sigma_lvlh", "nees")}
+    values = have["nees"].values[1:, deputies]
+    err = have["nav_error_lvlh"].values[:, deputies]
+    m = {"nees_mean": float(values.mean())}
+    m["nees_bound_low"], m["nees_bound_high"] = (float(b) for b in chi2_band(6, values.size))
+    m["nees_consistent"] = bool(m["nees_bound_low"] <= m["nees_mean"] <= m["nees_bound_high"])
+    m["nav_position_error_rms_m"] = float(np.sqrt(np.mean(np.sum(err[..., :3] ** 2, axis=-1))))
+    m["nav_velocity_error_rms_m_s"] = float(np.sqrt(np.mean(np.sum(err[..., 3:] ** 2, axis=-1))))
+    m["nav_position_sigma_mean_m"] = float(np.mean(np.linalg.norm(have["nav_sigma_lvlh"].values[:, deputies, :3], axis=-1)))
+    for k, name in enumerate(("gnss", "isl")):
+        used = ds["nav_updated"].values[:, deputies, k] > 0.0
+        if used.any():
+            m[f"nis_mean_{name}"] = float(ds["nav_nis"].values[:, deputies, k][used].mean())
+            m[f"nis_bound_{name}_low"], m[f"nis_bound_{name}_high"] = (float(b) for b in chi2_band(_DOF[name], int(used.sum())))
+    return m

@@ -1,0 +1,91 @@
+"""A law flying on a navigation filter's estimate: one spacecraft's flight software made of the
+filter and the law, run per spacecraft (``local``) in the compiled loop and in software in the
+loop alike.
+
+Each period, spacecraft i's flight software (``step_one``):
+
+1. updates its filter with its own readings and what the network delivered
+   (``navigation.update_one``), which gives the estimate of the quantity the filter
+   ``provides`` (``x_lvlh``, its state relative to the chief);
+2. runs the law's per-spacecraft form on its readings with that quantity replaced by the
+   estimate (``law.step_one``);
+3. carries the filter to the next period under the law's command (``navigation.predict_one``).
+
+Its message is the law's and the filter's together (their names must not clash); it records the
+law's record and the filter's (estimate, covariance, innovations); truth stays in the plant
+state the run records beside them.
+"""
+
+import jax
+
+from coopsat.core.parts import part
+
+_FILTER_KEY = 101  # the filter's stream, folded into the spacecraft's key (the law keeps the key itself)
+
+
+@part()
+class Navigated:
+    """Flight software = a navigation filter feeding a law (see the module docstring).
+
+    Attributes
+    ----------
+    navigation : part
+        The filter (``provides``, ``reads``, ``reads_own``, ``init``, ``outbox_one``,
+        ``update_one``, ``predict_one``, ``output_specs``).
+    law : part
+        A controller with a per-spacecraft form (``reads``, ``outbox_one``, ``step_one``) that
+        issues ``force_lvlh``.
+    """
+
+    navigation: object
+    law: object
+
+    local = True
+
+    @property
+    def commands(self):
+        return self.law.commands
+
+    @property
+    def reads(self):
+        """The filter's readings and the law's, but for what the filter provides."""
+        own = tuple(q for q in self.law.reads if q != self.navigation.provides)
+        return tuple(dict.fromkeys(self.navigation.reads + own))
+
+    @property
+    def reads_own(self):
+        return bool(self.navigation.reads_own or getattr(self.law, "reads_own", False))
+
+    def init(self, n):
+        return {"navigation": self.navigation.init(n), "law": self.law.init(n)}
+
+    def _law_reads(self, y_i, estimate):
+        return {q: estimate if q == self.navigation.provides else y_i[q] for q in self.law.reads}
+
+    def outbox_one(self, i, y_i, state_i):
+        """The law's message (from the estimate the law last flew on) and the filter's."""
+        nav = self.navigation
+        estimate = jax.numpy.where(i == nav.chief, 0.0, state_i["navigation"]["x"])
+        law_msg = self.law.outbox_one(i, self._law_reads(y_i, estimate), state_i["law"])
+        return {**law_msg, **nav.outbox_one(i, y_i, state_i["navigation"])}
+
+    def step_one(self, i, t, y_i, inbox_i, state_i, key_i):
+        """Spacecraft i's commands, new state and record (the law's and the filter's)."""
+        nav = self.navigation
+        nav_state, estimate, nav_record = nav.update_one(
+            i, t, y_i, inbox_i, state_i["navigation"], jax.random.fold_in(key_i, _FILTER_KEY)
+        )
+        commands, law_state, law_record = self.law.step_one(
+            i, t, self._law_reads(y_i, estimate), inbox_i, state_i["law"], key_i
+        )
+        nav_state = nav.predict_one(i, nav_state, commands["force_lvlh"])
+        return commands, {"navigation": nav_state, "law": law_state}, {**law_record, **nav_record}
+
+    def output_specs(self):
+        return {**self.law.output_specs(), **self.navigation.output_specs()}
+
+    def __getattr__(self, name):
+        # What the run's analysis reads of its law (targets, start time, chief) is the law's.
+        if name in ("navigation", "law") or name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.law, name)

@@ -1,0 +1,300 @@
+"""Relative navigation in each spacecraft's flight software: an extended Kalman filter of its
+state relative to the chief, in the chief's LVLH frame.
+
+State ``x = [ρ, ρ̇]`` (6,): position (m) and rotating-frame velocity (m/s) relative to the chief,
+the chief's LVLH axes (:mod:`coopsat.geometry.frames`), as the ``x_lvlh`` a law reads. Every
+spacecraft runs its own copy (``vmap`` in the compiled loop, one process each in software in the
+loop); the chief's estimate of itself is zero, exactly.
+
+Per control period of length T, at its start t (``update_one``):
+
+1. **Differential GNSS** (``gnss`` sensor): the chief broadcasts its own fix with the time it
+   was taken; the network delivers it (late, lost, held); the receiver pairs it with its own fix
+   of the same instant (``inbox.own``) and measures ``z = eci_to_lvlh(chief fix, own fix)``, the
+   whole relative state (H = I). The receivers' common errors cancel in this difference.
+   A fix τ = j T old (j ≤ the table's ``max_age_s / T``) is processed at its time stamp: it is
+   carried forward with the filter's own model and its own known commands,
+   ``z' = Φ_j (z − c_s) + c_t``, where ``c`` is the response of the filter's model to the
+   spacecraft's own commands since t = 0 (each spacecraft broadcasts its ``c``, so the network
+   returns the value of the fix's instant with it), and its noise is inflated to
+   ``Φ_j R Φ_jᵀ + Q_j`` (Q_j: the process noise over j periods). Exact for the linear model and
+   known commands; the correlation between ``Q_j`` and the present estimate's error is neglected
+   (a small over-confidence for long delays). Older fixes, and fixes already used (a held
+   message), are dropped.
+2. **Inter-satellite range and range-rate** to the chief (``isl`` sensor):
+   ``h(x) = [|ρ|, ρ·ρ̇/|ρ|]`` (the frame's rotation does not change a range), linearised about
+   the prior (the EKF's only nonlinearity).
+
+Both updates in Joseph form. Then the law reads the posterior, and the estimate is carried to
+the next period with the Clohessy–Wiltshire model (``x⁺ = Φ x + Γ u``, ``P⁺ = Φ P Φᵀ + Q``),
+``u`` the law's commanded ``force_lvlh`` over the spacecraft's mass (the thrusters' dead zone
+and saturation are not modelled: process noise).
+
+Notes
+-----
+Φ, Γ and Q are the exact zero-order-hold discretisation of the CW equations (SPEC §2 eq. 1)
+with continuous white acceleration noise of spectral density ``q`` (Van Loan), computed at
+design time (:func:`discretise`).
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from coopsat.core.parts import OutputSpec, part
+from coopsat.geometry.frames import eci_to_lvlh, lvlh_dcm
+
+_STATE = ("x", "y", "z", "vx", "vy", "vz")
+_DRAW = 17  # tag of the initial-error draw in the filter's key
+
+
+def discretise(n_rad_s, period_s, q_m2_s3, max_periods):
+    """The filter's model over 0..``max_periods`` control periods (design time, NumPy).
+
+    Parameters
+    ----------
+    n_rad_s : float
+        The chief's mean motion, rad/s.
+    period_s : float
+        Control period T, s.
+    q_m2_s3 : (3,)
+        Spectral density of the white acceleration noise per LVLH axis, m²/s³.
+    max_periods : int
+        The oldest fix processed, in periods (≥ 0).
+
+    Returns
+    -------
+    phi_k : (max_periods + 2, 6, 6)
+        Φ(jT) for j = 0..max_periods + 1 (``phi_k[1]`` is the one-period transition).
+    gamma : (6, 3)
+        ZOH input matrix over one period, s and s² (input: acceleration, m/s²).
+    q_k : (max_periods + 2, 6, 6)
+        Process noise accumulated over j periods, ``Q_j = Σ_{m<j} Φ^m Q Φ^mᵀ``.
+    """
+    from scipy.linalg import expm
+
+    from coopsat.dynamics.cw import cw_matrices
+
+    a, b = (np.asarray(m) for m in cw_matrices(n_rad_s))
+    qc = np.zeros((6, 6))
+    qc[3:, 3:] = np.diag(np.asarray(q_m2_s3, dtype=float))
+    # Van Loan: expm([[−A, Qc], [0, Aᵀ]] T) = [[·, Φ⁻¹Q], [0, Φᵀ]].
+    van_loan = expm(np.block([[-a, qc], [np.zeros((6, 6)), a.T]]) * period_s)
+    phi = van_loan[6:, 6:].T
+    q = phi @ van_loan[:6, 6:]
+    q = 0.5 * (q + q.T)
+    zoh = expm(np.block([[a, b], [np.zeros((3, 9))]]) * period_s)
+    gamma = zoh[:6, 6:]
+    phi_k, q_k = [np.eye(6)], [np.zeros((6, 6))]
+    for _ in range(max_periods + 1):
+        q_k.append(phi @ q_k[-1] @ phi.T + q)
+        phi_k.append(phi @ phi_k[-1])
+    return np.stack(phi_k), gamma, np.stack(q_k)
+
+
+def joseph_update(x, p, residual, h, r):
+    """One Kalman measurement update in Joseph form.
+
+    Parameters
+    ----------
+    x : (6,), p : (6, 6)
+        Prior estimate and covariance.
+    residual : (m,)
+        Measurement minus its prediction.
+    h : (m, 6)
+        Measurement Jacobian.
+    r : (m, m)
+        Measurement noise covariance.
+
+    Returns
+    -------
+    x, p : the posterior; nis : scalar, ``νᵀ S⁻¹ ν`` (normalised innovation squared, χ²(m)).
+    """
+    s = h @ p @ h.T + r
+    gain = jnp.linalg.solve(s, h @ p).T  # P Hᵀ S⁻¹ (S and P symmetric)
+    i_kh = jnp.eye(6) - gain @ h
+    p_new = i_kh @ p @ i_kh.T + gain @ r @ gain.T
+    return x + gain @ residual, 0.5 * (p_new + p_new.T), residual @ jnp.linalg.solve(s, residual)
+
+
+def range_model(x):
+    """Range (m) and range-rate (m/s) of a relative state (6,) and their Jacobian (2, 6).
+
+    ``r = |ρ|``, ``ṙ = ρ·ρ̇/|ρ|``; ``∂ṙ/∂ρ = ρ̇/r − ṙ ρ/r²``, ``∂ṙ/∂ρ̇ = ρ/r``.
+    """
+    rho, rho_dot = x[:3], x[3:]
+    rng = jnp.sqrt(rho @ rho)
+    rate = rho @ rho_dot / rng
+    h = jnp.concatenate([
+        jnp.concatenate([rho / rng, jnp.zeros(3)])[None],
+        jnp.concatenate([rho_dot / rng - rate * rho / rng**2, rho / rng])[None],
+    ])
+    return jnp.stack([rng, rate]), h
+
+
+def _select(use, new, old):
+    """``new`` where ``use`` else ``old``, leaf by leaf."""
+    return jax.tree_util.tree_map(lambda a, b: jnp.where(use, a, b), new, old)
+
+
+@part(static=("gnss_every", "isl_every", "draw_initial"))
+class RelativeEkf:
+    """One spacecraft's relative-navigation EKF (see the module docstring).
+
+    Attributes
+    ----------
+    phi_k, q_k : (J + 2, 6, 6)
+        Transition and accumulated process noise over j periods (:func:`discretise`).
+    gamma : (6, 3)
+        One period's ZOH input matrix.
+    x0_lvlh : (6, n)
+        Each spacecraft's initial estimate (the scenario's initial relative state), m, m/s.
+    sigma0 : (6,)
+        Initial standard deviation per state, m, m/s (``P₀ = diag(σ₀²)``).
+    r_gnss_eci : (6,)
+        Variance of the difference of two receivers' fixes per ECI axis, m², m²/s².
+    r_isl : (2,)
+        Variance of range (m²) and range-rate (m²/s²).
+    mass_kg : (n,)
+    chief : int scalar
+    period_s : scalar
+    gnss_every, isl_every : int
+        Static: control periods between fixes / ranges; 0 when the filter does not use it.
+    draw_initial : bool
+        Static: start from ``x0 + σ₀ ν`` (ν drawn from the spacecraft's key), not from ``x0``.
+    """
+
+    phi_k: jnp.ndarray
+    q_k: jnp.ndarray
+    gamma: jnp.ndarray
+    x0_lvlh: jnp.ndarray
+    sigma0: jnp.ndarray
+    r_gnss_eci: jnp.ndarray
+    r_isl: jnp.ndarray
+    mass_kg: jnp.ndarray
+    chief: jnp.ndarray
+    period_s: jnp.ndarray
+    gnss_every: int = 0
+    isl_every: int = 0
+    draw_initial: bool = True
+
+    provides = "x_lvlh"
+
+    @property
+    def reads(self):
+        """The measured quantities the filter reads."""
+        return (("gnss",) if self.gnss_every else ()) + (("isl",) if self.isl_every else ())
+
+    @property
+    def reads_own(self):
+        """A fix is differenced with the receiver's own fix of the same instant."""
+        return bool(self.gnss_every)
+
+    def init(self, n):
+        """Every spacecraft's filter before its first period: the prior (x, P), the model's
+        response to its own commands ``c``, the clock (s), the time of the last fix used (s)."""
+        p0 = jnp.diag(self.sigma0**2)
+        return {
+            "x": jnp.asarray(self.x0_lvlh), "p": jnp.broadcast_to(p0[:, :, None], (6, 6, n)),
+            "c": jnp.zeros((6, n)), "clock_s": jnp.zeros(n), "last_fix_s": jnp.full(n, -1.0),
+        }
+
+    def outbox_one(self, i, y_i, state_i):
+        """Spacecraft i's fix (6,) when it is fresh this period, when it was taken (s), and its
+        ``c`` (6,) of this instant."""
+        if not self.gnss_every:
+            return {}
+        frame = jnp.round(state_i["clock_s"] / self.period_s).astype(jnp.int64)
+        return {
+            "nav_fix": y_i["gnss"], "nav_fix_s": state_i["clock_s"], "nav_c": state_i["c"],
+            "nav_fresh": (frame % self.gnss_every == 0).astype(float), "nav_from": jnp.asarray(i, dtype=float),
+        }
+
+    def _initial(self, state_i, key_i):
+        """The first period's prior: ``x0`` plus a drawn initial error, when chosen."""
+        if not self.draw_initial:
+            return state_i
+        nu = jax.random.normal(jax.random.fold_in(key_i, _DRAW), (6,))
+        first = state_i["clock_s"] == 0.0
+        return {**state_i, "x": jnp.where(first, state_i["x"] + self.sigma0 * nu, state_i["x"])}
+
+    def _gnss(self, state_i, t, y_i, inbox_i):
+        """The differential-GNSS update from the freshest usable fix of the chief."""
+        msg, own = inbox_i.msg, inbox_i.own
+        age = jnp.round((t - msg["nav_fix_s"]) / self.period_s).astype(jnp.int64)
+        usable = ((inbox_i.weight != 0.0) & (msg["nav_from"] == self.chief) & (msg["nav_fresh"] > 0.0)
+                  & (msg["nav_fix_s"] > state_i["last_fix_s"]) & (age <= self.phi_k.shape[0] - 2))
+        link = jnp.argmax(jnp.where(usable, msg["nav_fix_s"], -jnp.inf))
+        j = jnp.clip(age[link], 0, self.phi_k.shape[0] - 2)
+        chief_fix, own_fix = msg["nav_fix"][:, link], own["nav_fix"][:, link]
+        rho, rho_dot = eci_to_lvlh(chief_fix[:3], chief_fix[3:], own_fix[:3], own_fix[3:])
+        # The fix's noise in LVLH axes (the chief's fix defines them), carried to now.
+        turn = jnp.kron(jnp.eye(2), lvlh_dcm(chief_fix[:3], chief_fix[3:]))
+        r_now = self.phi_k[j] @ (turn @ jnp.diag(self.r_gnss_eci) @ turn.T) @ self.phi_k[j].T + self.q_k[j]
+        z_now = self.phi_k[j] @ (jnp.concatenate([rho, rho_dot]) - own["nav_c"][:, link]) + state_i["c"]
+        x, p, nis = joseph_update(state_i["x"], state_i["p"], z_now - state_i["x"], jnp.eye(6), r_now)
+        use = jnp.any(usable)
+        new = {**state_i, "x": x, "p": p, "last_fix_s": msg["nav_fix_s"][link]}
+        return _select(use, new, state_i), jnp.where(use, nis, 0.0), use
+
+    def _isl(self, state_i, t, y_i):
+        """The range and range-rate update, when the sensor read this period and saw the chief."""
+        frame = jnp.round(t / self.period_s).astype(jnp.int64)
+        z = y_i["isl"]
+        use = (frame % self.isl_every == 0) & (z[2] > 0.0)
+        predicted, h = range_model(state_i["x"])
+        x, p, nis = joseph_update(state_i["x"], state_i["p"], z[:2] - predicted, h, jnp.diag(self.r_isl))
+        return _select(use, {**state_i, "x": x, "p": p}, state_i), jnp.where(use, nis, 0.0), use
+
+    def update_one(self, i, t, y_i, inbox_i, state_i, key_i):
+        """Spacecraft i's posterior at t: (state, estimate (6,), record). The chief's estimate
+        (and recorded covariance) is zero."""
+        state_i = self._initial(state_i, key_i)
+        nis, used = jnp.zeros(2), jnp.zeros(2)
+        if self.gnss_every:
+            state_i, nis_g, use_g = self._gnss(state_i, t, y_i, inbox_i)
+            nis, used = nis.at[0].set(nis_g), used.at[0].set(use_g.astype(float))
+        if self.isl_every:
+            state_i, nis_r, use_r = self._isl(state_i, t, y_i)
+            nis, used = nis.at[1].set(nis_r), used.at[1].set(use_r.astype(float))
+        chief = i == self.chief
+        estimate = jnp.where(chief, 0.0, state_i["x"])
+        record = {"nav_estimate_lvlh": estimate, "nav_covariance_lvlh": jnp.where(chief, 0.0, state_i["p"]),
+                  "nav_nis": nis, "nav_updated": used}
+        return state_i, estimate, record
+
+    def predict_one(self, i, state_i, force_lvlh_n):
+        """The prior at the next period's start under the law's commanded force (3,), N."""
+        u = force_lvlh_n / self.mass_kg[i]
+        phi = self.phi_k[1]
+        return {
+            **state_i,
+            "x": phi @ state_i["x"] + self.gamma @ u, "c": phi @ state_i["c"] + self.gamma @ u,
+            "p": phi @ state_i["p"] @ phi.T + self.q_k[1], "clock_s": state_i["clock_s"] + self.period_s,
+        }
+
+    def output_specs(self):
+        state = (("nav_state", _STATE),)
+        return {
+            "nav_estimate_lvlh": OutputSpec(
+                ("nav_state",), "m, m/s", "LVLH",
+                "relative state estimated by the spacecraft's navigation filter (x, y, z in m; vx, vy, vz in m/s, "
+                "rotating-frame rates; the chief's LVLH), after the period's measurements, at the sample",
+                coords=state,
+            ),
+            "nav_covariance_lvlh": OutputSpec(
+                ("nav_state", "nav_state_col"), "m2, m2/s, m2/s2", "LVLH",
+                "covariance of the navigation filter's estimate at the sample (0 for the chief)",
+                coords=(("nav_state", _STATE), ("nav_state_col", _STATE)),
+            ),
+            "nav_nis": OutputSpec(
+                ("nav_measurement",), "1", "",
+                "normalised innovation squared of the period's update (chi-square with 6 dof for gnss, 2 for isl; "
+                "0 when there was none)",
+                coords=(("nav_measurement", ("gnss", "isl")),),
+            ),
+            "nav_updated": OutputSpec(
+                ("nav_measurement",), "1", "", "1 when the filter used that measurement this period, else 0",
+                coords=(("nav_measurement", ("gnss", "isl")),),
+            ),
+        }

@@ -1,0 +1,171 @@
+"""Navigation filters (``[navigation]``): the law flies on each spacecraft's estimate instead of on
+truth.
+
+``kind = "relative-ekf"``: every spacecraft's flight software runs an extended Kalman filter of
+its state relative to the chief in the chief's LVLH frame (:mod:`coopsat.control.relative_ekf`)
+on differential GNSS (the chief's fix over the network) and inter-satellite range and
+range-rate, and the law reads the estimate as its ``x_lvlh`` (:mod:`coopsat.control.navigated`).
+The filter's measurement noise is the sensors' own (their tables), its process noise the
+table's. Design checks: every covariance positive definite, every measurement's rate a whole
+multiple of the control period (the sensors' own check), the filter's sensors present.
+"""
+
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from coopsat.plugins import DesignCheck, DesignError, Plugin, register
+from coopsat.plugins.sensors import PerAxis
+from coopsat.plugins.tables import MAX_TIME_S, Table, whole_ratio
+
+_SENSOR_QUANTITY = {"gnss": "gnss", "isl-range": "isl"}
+
+
+class RelativeEkf(Table):
+    """``kind = "relative-ekf"``: each spacecraft estimates its state relative to the chief (EKF)."""
+
+    kind: Literal["relative-ekf"]
+    chief: str = Field(description="The reference spacecraft: the origin of every estimated relative state.")
+    measurements: list[Literal["gnss", "isl-range"]] = Field(
+        min_length=1, description='The sensors the filter uses, by kind: "gnss" (differential, the chief\'s fix over '
+                                  'the network), "isl-range" (range and range-rate to the chief).'
+    )
+    accel_psd_m2_s3: PerAxis = Field(
+        description="Process noise: spectral density of the white acceleration the model leaves out, per LVLH axis, m²/s³."
+    )
+    initial_sigma_m: PerAxis = Field(description="Initial standard deviation of the relative position per LVLH axis, m.")
+    initial_sigma_m_s: PerAxis = Field(description="Initial standard deviation of the relative velocity per LVLH axis, m/s.")
+    draw_initial_error: bool = Field(
+        True, description="Start each filter from the scenario's initial relative state plus an error drawn from the "
+                          "initial covariance (seeded); false: from the initial state itself."
+    )
+    max_age_s: float = Field(
+        0.0, ge=0, le=MAX_TIME_S,
+        description="Oldest chief's fix processed (at its time stamp), s; older ones are dropped. A whole multiple of "
+                    "the control period.",
+    )
+
+
+def _sensor(ctx, kind):
+    """The ``[[sensors]]`` table of ``kind`` the filter uses (DesignError when there is none)."""
+    tables = [t for t in ctx.scenario.sensors if t.kind == kind]
+    if not tables:
+        raise DesignError(f'navigation.measurements: "{kind}" needs a [[sensors]] table kind = "{kind}"')
+    return tables[0]
+
+
+def _variances(name, values, where):
+    """Per-axis variances from standard deviations; one line naming the field when one is not > 0."""
+    sigma = np.broadcast_to(np.asarray(values, dtype=float), (3,))
+    if np.any(sigma <= 0.0):
+        raise DesignError(f"{where}: the filter needs {name} positive definite; every axis must be > 0, got {sigma.tolist()}")
+    return sigma**2
+
+
+def _gnss_noise(table):
+    """Variance of the difference of two receivers' fixes per ECI axis (6,): white and own
+    Gauss–Markov terms of both; the common term cancels."""
+    pos = 2.0 * (np.square(np.broadcast_to(table.sigma_m, 3)) + np.square(np.broadcast_to(table.own_sigma_m, 3)))
+    vel = 2.0 * (np.square(np.broadcast_to(table.sigma_m_s, 3)) + np.square(np.broadcast_to(table.own_sigma_m_s, 3)))
+    r = np.concatenate([pos, vel]).astype(float)
+    if np.any(r <= 0.0):
+        raise DesignError(
+            'navigation: the "gnss" sensor\'s noise (sigma_m, sigma_m_s, own_sigma_m, own_sigma_m_s) is zero on an axis, so '
+            "the differential fix's covariance is not positive definite; give the sensor its noise"
+        )
+    return r
+
+
+def _isl_noise(table, ctx, chief):
+    if ctx.index(table.to, "sensors.to") != chief:
+        raise DesignError(f'navigation: the "isl-range" sensor ranges to {table.to}, the filter estimates relative to the chief')
+    r = np.array([table.sigma_m, table.sigma_m_s], dtype=float) ** 2
+    if np.any(r <= 0.0):
+        raise DesignError('navigation: the "isl-range" sensor\'s sigma_m and sigma_m_s must be > 0 (the filter needs R positive definite)')
+    return r
+
+
+def _every(table, ctx, kind):
+    period = _sensor(ctx, kind).period_s
+    return 1 if period is None else whole_ratio(period, ctx.period_s)
+
+
+def chief_mean_motion(ctx, chief):
+    """The chief's mean motion from its initial state (vis-viva), rad/s."""
+    r, v = np.linalg.norm(ctx.r_eci_m[chief]), np.linalg.norm(ctx.v_eci_m_s[chief])
+    mu = ctx.scenario.orbit.mu_m3_s2
+    a = 1.0 / (2.0 / r - v * v / mu)
+    return float(np.sqrt(mu / a**3))
+
+
+def _initial_relative(ctx, chief):
+    """Every spacecraft's initial state relative to the chief, LVLH, (6, n)."""
+    from coopsat.geometry.frames import eci_to_lvlh
+
+    rho, rho_dot = eci_to_lvlh(ctx.r_eci_m[chief], ctx.v_eci_m_s[chief], ctx.r_eci_m, ctx.v_eci_m_s)
+    return np.concatenate([np.asarray(rho), np.asarray(rho_dot)], axis=1).T
+
+
+def _build(table, ctx):
+    from coopsat.control.relative_ekf import RelativeEkf as Part
+    from coopsat.control.relative_ekf import discretise
+    from coopsat.sim.system import as_arrays
+
+    if ctx.scenario.orbit is None:
+        raise DesignError("navigation: relative-ekf estimates relative orbits; it needs an [orbit] table")
+    chief = ctx.index(table.chief, "navigation.chief")
+    masses = [sc.mass_kg for sc in ctx.scenario.spacecraft]
+    if any(m is None for m in masses):
+        raise DesignError("navigation: relative-ekf turns commanded forces into accelerations; give every spacecraft mass_kg")
+    q = _variances("accel_psd_m2_s3 (Q)", np.sqrt(np.broadcast_to(table.accel_psd_m2_s3, 3)), "navigation.accel_psd_m2_s3")
+    sigma0 = np.sqrt(np.concatenate([
+        _variances("initial_sigma_m (P0)", table.initial_sigma_m, "navigation.initial_sigma_m"),
+        _variances("initial_sigma_m_s (P0)", table.initial_sigma_m_s, "navigation.initial_sigma_m_s"),
+    ]))
+    max_age = 0 if table.max_age_s == 0.0 else whole_ratio(table.max_age_s, ctx.period_s)
+    if max_age is None:
+        raise DesignError(
+            f"navigation.max_age_s ({table.max_age_s:g} s) must be a whole multiple of the control period ({ctx.period_s:g} s)"
+        )
+    use = set(table.measurements)
+    r_gnss = _gnss_noise(_sensor(ctx, "gnss")) if "gnss" in use else np.ones(6)
+    r_isl = _isl_noise(_sensor(ctx, "isl-range"), ctx, chief) if "isl-range" in use else np.ones(2)
+    phi_k, gamma, q_k = discretise(chief_mean_motion(ctx, chief), ctx.period_s, q, max_age)
+    arrays = (phi_k, q_k, gamma, _initial_relative(ctx, chief), sigma0, r_gnss, r_isl, np.asarray(masses, dtype=float),
+              np.int32(chief), ctx.period_s)
+    return Part(
+        *as_arrays(arrays),
+        gnss_every=_every(table, ctx, "gnss") if "gnss" in use else 0,
+        isl_every=_every(table, ctx, "isl-range") if "isl-range" in use else 0,
+        draw_initial=table.draw_initial_error,
+    )
+
+
+def check_steady_state(table, ctx):
+    """The filter's steady state on differential GNSS alone (the discrete Riccati equation of its
+    model, fixes every period): the position standard deviation it settles to per LVLH axis."""
+    if "gnss" not in table.measurements or ctx.scenario.orbit is None:
+        return None
+    from scipy.linalg import solve_discrete_are
+
+    from coopsat.control.relative_ekf import discretise
+
+    chief = ctx.index(table.chief, "navigation.chief")
+    q = np.broadcast_to(np.asarray(table.accel_psd_m2_s3, dtype=float), (3,))
+    every = _every(table, ctx, "gnss")
+    phi_k, _, q_k = discretise(chief_mean_motion(ctx, chief), ctx.period_s * every, q, 0)
+    r = np.diag(_gnss_noise(_sensor(ctx, "gnss")))  # isotropic noise: the same in LVLH axes
+    p = solve_discrete_are(phi_k[1].T, np.eye(6), q_k[1], r)  # a priori covariance
+    posterior = p - p @ np.linalg.solve(p + r, p)
+    sigma = np.sqrt(np.diag(posterior)[:3])
+    return DesignCheck(
+        "relative-ekf", True,
+        f"relative-ekf steady state on differential GNSS every {ctx.period_s * every:g} s: position σ "
+        f"{', '.join(f'{s * 1e3:.2f}' for s in sigma)} mm (x, y, z LVLH)",
+        {"relative_ekf_steady_sigma_m": float(np.max(sigma))},
+    )
+
+
+register(Plugin("navigation", "relative-ekf", RelativeEkf, _build, (check_steady_state,),
+                analysis="coopsat.analysis.papers.navigation"))

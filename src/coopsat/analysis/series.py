@@ -183,6 +183,22 @@ def _translation(ds):
     return rows
 
 
+def _navigation(ds):
+    """(name, label, unit, values, log, threshold) of a navigation filter's error, its claimed
+    3σ (position, per LVLH axis) and its NEES, where the run has them."""
+    if "nav_error_lvlh" not in ds:
+        return []
+    position = {"nav_state": "component"}
+    xyz = {"component": ["x", "y", "z"]}
+    error = ds["nav_error_lvlh"].isel(nav_state=slice(0, 3)).rename(position).assign_coords(xyz)
+    sigma = ds["nav_sigma_lvlh"].isel(nav_state=slice(0, 3)).rename(position).assign_coords(xyz)
+    return [
+        ("nav_position_error_m", "navigation estimate minus truth, position (chief's LVLH)", "m", error, False, None),
+        ("nav_position_3sigma_m", "navigation filter's 3σ, position (chief's LVLH)", "m", 3.0 * sigma, False, None),
+        ("nees", "navigation filter's NEES (6 when consistent)", "1", ds["nees"], True, 6.0),
+    ]
+
+
 def run_series(ds, analysis=None):
     """Every time series the run has (module docstring), in a fixed order: attitude, rates,
     actuators, translation.
@@ -201,7 +217,7 @@ def run_series(ds, analysis=None):
         Values zero or NaN at every sample are left out, and so is every attitude and rate
         series of a run whose attitude does not move (:func:`attitude_moves`).
     """
-    rows = (_attitude(ds, analysis) if attitude_moves(ds) else []) + _actuators(ds) + _translation(ds)
+    rows = (_attitude(ds, analysis) if attitude_moves(ds) else []) + _actuators(ds) + _translation(ds) + _navigation(ds)
     series = []
     for name, label, unit, values, log_scale, threshold in rows:
         v = np.asarray(values.values, dtype=float)

@@ -5,11 +5,11 @@ loop alike.
 Each period, spacecraft i's flight software (``step_one``):
 
 1. updates its filter with its own readings and what the network delivered
-   (``navigation.update_one``), which gives the estimate of the quantity the filter
-   ``provides`` (``x_lvlh``, its state relative to the chief);
-2. runs the law's per-spacecraft form on its readings with that quantity replaced by the
+   (``navigation.update_one``), which gives the estimate of the quantities the filter
+   ``provides`` (``x_lvlh``, its state relative to the chief; or its own ``r_eci``, ``v_eci``);
+2. runs the law's per-spacecraft form on its readings with those quantities replaced by the
    estimate (``law.step_one``);
-3. carries the filter to the next period under the law's command (``navigation.predict_one``).
+3. carries the filter to the next period under the law's commands (``navigation.predict_one``).
 
 Its message is the law's and the filter's together (their names must not clash); it records the
 law's record and the filter's (estimate, covariance, innovations); truth stays in the plant
@@ -30,11 +30,9 @@ class Navigated:
     Attributes
     ----------
     navigation : part
-        The filter (``provides``, ``reads``, ``reads_own``, ``init``, ``outbox_one``,
-        ``update_one``, ``predict_one``, ``output_specs``).
+        The filter (:class:`coopsat.plugins.protocols.Navigation`).
     law : part
-        A controller with a per-spacecraft form (``reads``, ``outbox_one``, ``step_one``) that
-        issues ``force_lvlh``.
+        A controller with a per-spacecraft form (``reads``, ``outbox_one``, ``step_one``).
     """
 
     navigation: object
@@ -49,7 +47,7 @@ class Navigated:
     @property
     def reads(self):
         """The filter's readings and the law's, but for what the filter provides."""
-        own = tuple(q for q in self.law.reads if q != self.navigation.provides)
+        own = tuple(q for q in self.law.reads if q not in self.navigation.provides)
         return tuple(dict.fromkeys(self.navigation.reads + own))
 
     @property
@@ -60,12 +58,12 @@ class Navigated:
         return {"navigation": self.navigation.init(n), "law": self.law.init(n)}
 
     def _law_reads(self, y_i, estimate):
-        return {q: estimate if q == self.navigation.provides else y_i[q] for q in self.law.reads}
+        return {q: estimate[q] if q in estimate else y_i[q] for q in self.law.reads}
 
     def outbox_one(self, i, y_i, state_i):
-        """The law's message (from the estimate the law last flew on) and the filter's."""
+        """The law's message (from the filter's present prior) and the filter's."""
         nav = self.navigation
-        estimate = jax.numpy.where(i == nav.chief, 0.0, state_i["navigation"]["x"])
+        estimate = nav.estimate_of(i, state_i["navigation"])
         law_msg = self.law.outbox_one(i, self._law_reads(y_i, estimate), state_i["law"])
         return {**law_msg, **nav.outbox_one(i, y_i, state_i["navigation"])}
 
@@ -78,7 +76,7 @@ class Navigated:
         commands, law_state, law_record = self.law.step_one(
             i, t, self._law_reads(y_i, estimate), inbox_i, state_i["law"], key_i
         )
-        nav_state = nav.predict_one(i, nav_state, commands["force_lvlh"])
+        nav_state = nav.predict_one(i, nav_state, commands)
         return commands, {"navigation": nav_state, "law": law_state}, {**law_record, **nav_record}
 
     def output_specs(self):

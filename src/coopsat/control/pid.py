@@ -175,6 +175,7 @@ class LvlhPd:
     start_s: jnp.ndarray
 
     commands = ("force_lvlh",)
+    chief = CHIEF
 
     def init(self, n):
         return ()

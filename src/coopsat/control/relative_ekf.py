@@ -178,7 +178,7 @@ class RelativeEkf:
     isl_every: int = 0
     draw_initial: bool = True
 
-    provides = "x_lvlh"
+    provides = ("x_lvlh",)
 
     @property
     def reads(self):
@@ -198,6 +198,21 @@ class RelativeEkf:
             "x": jnp.asarray(self.x0_lvlh), "p": jnp.broadcast_to(p0[:, :, None], (6, 6, n)),
             "c": jnp.zeros((6, n)), "clock_s": jnp.zeros(n), "last_fix_s": jnp.full(n, -1.0),
         }
+
+    def check_law(self, law, kind):
+        """Why ``law`` cannot fly on this filter (its chief differs, it commands no
+        ``force_lvlh``), or None."""
+        if "force_lvlh" not in law.commands:
+            return f"the filter carries its estimate under force_lvlh, which controller kind '{kind}' does not command"
+        chief = getattr(law, "chief", None)
+        if chief is not None and int(chief) != int(self.chief):
+            return f"controller kind '{kind}' keeps spacecraft {int(chief) + 1} as its chief, the filter spacecraft {int(self.chief) + 1}"
+        return None
+
+    def estimate_of(self, i, state_i):
+        """What the law reads of spacecraft i's estimate in ``state_i``: ``{"x_lvlh": (6,)}``,
+        zero for the chief."""
+        return {"x_lvlh": jnp.where(i == self.chief, 0.0, state_i["x"])}
 
     def outbox_one(self, i, y_i, state_i):
         """Spacecraft i's fix (6,) when it is fresh this period, when it was taken (s), and its
@@ -247,8 +262,8 @@ class RelativeEkf:
         return _select(use, {**state_i, "x": x, "p": p}, state_i), jnp.where(use, nis, 0.0), use
 
     def update_one(self, i, t, y_i, inbox_i, state_i, key_i):
-        """Spacecraft i's posterior at t: (state, estimate (6,), record). The chief's estimate
-        (and recorded covariance) is zero."""
+        """Spacecraft i's posterior at t: (state, ``{"x_lvlh": (6,)}``, record). The chief's
+        estimate (and recorded covariance) is zero."""
         state_i = self._initial(state_i, key_i)
         nis, used = jnp.zeros(2), jnp.zeros(2)
         if self.gnss_every:
@@ -257,21 +272,33 @@ class RelativeEkf:
         if self.isl_every:
             state_i, nis_r, use_r = self._isl(state_i, t, y_i)
             nis, used = nis.at[1].set(nis_r), used.at[1].set(use_r.astype(float))
-        chief = i == self.chief
-        estimate = jnp.where(chief, 0.0, state_i["x"])
-        record = {"nav_estimate_lvlh": estimate, "nav_covariance_lvlh": jnp.where(chief, 0.0, state_i["p"]),
+        estimate = self.estimate_of(i, state_i)
+        record = {"nav_estimate_lvlh": estimate["x_lvlh"], "nav_covariance_lvlh": jnp.where(i == self.chief, 0.0, state_i["p"]),
                   "nav_nis": nis, "nav_updated": used}
         return state_i, estimate, record
 
-    def predict_one(self, i, state_i, force_lvlh_n):
-        """The prior at the next period's start under the law's commanded force (3,), N."""
-        u = force_lvlh_n / self.mass_kg[i]
+    def predict_one(self, i, state_i, commands):
+        """The prior at the next period's start under the law's commanded ``force_lvlh`` (3,), N."""
+        u = commands["force_lvlh"] / self.mass_kg[i]
         phi = self.phi_k[1]
         return {
             **state_i,
             "x": phi @ state_i["x"] + self.gamma @ u, "c": phi @ state_i["c"] + self.gamma @ u,
             "p": phi @ state_i["p"] @ phi.T + self.q_k[1], "clock_s": state_i["clock_s"] + self.period_s,
         }
+
+    def true_state(self, r_eci, v_eci):
+        """The truth of what the filter estimates, from recorded ECI states (T, n, 3): each
+        spacecraft's state relative to the chief, its LVLH frame, (T, n, 6) NumPy."""
+        import numpy as np
+
+        c = slice(int(self.chief), int(self.chief) + 1)
+        rho, rho_dot = eci_to_lvlh(r_eci[:, c], v_eci[:, c], r_eci, v_eci)
+        return np.concatenate([np.asarray(rho), np.asarray(rho_dot)], axis=-1)
+
+    def estimated(self, n):
+        """The spacecraft whose estimates are judged (the chief's is zero by construction)."""
+        return [k for k in range(n) if k != int(self.chief)]
 
     def output_specs(self):
         state = (("nav_state", _STATE),)

@@ -8,7 +8,7 @@ no pyplot).
 import numpy as np
 from matplotlib.figure import Figure
 
-from coopsat.analysis.papers.navigation import chi2_band, series
+from coopsat.analysis.papers.navigation import chi2_band, effective_count, series
 
 _AXES = ("along-track x", "cross-track y", "radial z (nadir)")
 
@@ -22,12 +22,12 @@ def estimate_error_figure(ds, built, velocity=False):
     have = _series(ds, built)
     t_s = ds["time"].values
     off, unit, what = (3, "m/s", "velocity") if velocity else (0, "m", "position")
-    chief = int(built.system.controller.navigation.chief)
+    judged = built.system.controller.navigation.estimated(ds.sizes["spacecraft"])
     fig = Figure(figsize=(7.5, 7.0), layout="constrained")
     for c, label in enumerate(_AXES):
         ax = fig.add_subplot(3, 1, c + 1)
         for i, name in enumerate(ds["spacecraft"].values):
-            if i == chief:
+            if i not in judged:
                 continue
             err = have["nav_error_lvlh"].values[:, i, off + c]
             three = 3.0 * have["nav_sigma_lvlh"].values[:, i, off + c]
@@ -54,7 +54,7 @@ def nees_figure(ds, built):
         ax.plot(t_s, values[:, i], lw=0.6, alpha=0.7, label=str(ds["spacecraft"].values[i]))
     low, high = chi2_band(6, 1)
     ax.axhspan(low, high, color="0.85", zorder=0, label="95 % band of one value, χ²(6)")
-    mean_low, mean_high = chi2_band(6, max(values[1:, deputies].size, 1))
+    mean_low, mean_high = chi2_band(6, sum(effective_count(values[1:, i]) for i in deputies))
     mean = float(np.nanmean(values[1:, deputies]))
     ax.axhline(mean, color="k", lw=1.2, label=f"run mean {mean:.2f} (95 % band {mean_low:.2f}–{mean_high:.2f})")
     ax.set_yscale("log")

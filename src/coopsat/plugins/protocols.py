@@ -48,6 +48,8 @@ import dataclasses
 import inspect
 from typing import TYPE_CHECKING, Any, Iterable, Mapping, Protocol, runtime_checkable
 
+from coopsat.plugins.optional_members import OPTIONAL, OptionalMember, optional  # re-exported
+
 if TYPE_CHECKING:  # documentation only: this module imports no JAX
     from coopsat.core.parts import OutputSpec
     from coopsat.actuators.pulses import Pulse
@@ -414,85 +416,41 @@ class Disturbance(Protocol):
 
 @runtime_checkable
 class Navigation(Protocol):
-    """One spacecraft's navigation filter (``[navigation]``), run inside its flight software
-    before the law (:mod:`coopsat.control.navigated`): the law reads the estimate in place of the
-    quantity the filter ``provides`` (``"x_lvlh"``); the filter ``reads`` measured quantities
-    (``("gnss", "isl")``); ``reads_own`` as :attr:`LocalController.reads_own`. Per spacecraft."""
+    """One spacecraft's navigation filter (``[navigation]``), run in its flight software before
+    the law (:mod:`coopsat.control.navigated`): the law reads the estimate of the quantities it
+    ``provides`` (``("x_lvlh",)``) instead of its readings; it ``reads`` measured quantities
+    (``("gnss",)``); ``reads_own`` as :attr:`LocalController.reads_own`. Per spacecraft."""
 
-    provides: str
+    provides: tuple[str, ...]
     reads: tuple[str, ...]
     reads_own: bool
 
     def init(self, n: int) -> State:
         """Every spacecraft's filter state before its first period, spacecraft axis last."""
 
+    def check_law(self, law: Any, kind: str) -> str | None:
+        """Why ``law`` cannot fly on this filter, or None (design time)."""
+
+    def estimate_of(self, i: Array, state_i: State) -> dict[str, Array]:
+        """The estimate in ``state_i`` as the law reads it, ``{quantity: (k,)}``."""
+
     def outbox_one(self, i: Array, y_i: Mapping[str, Array], state_i: State) -> dict[str, Array]:
         """What spacecraft ``i``'s filter broadcasts (names distinct from the law's)."""
 
     def update_one(self, i: Array, t: Array, y_i: Mapping[str, Array], inbox_i: Inbox, state_i: State, key_i: Array):
-        """The measurement updates at t: (state, the estimate the law reads, record)."""
+        """The measurement updates at t: (state, ``estimate_of`` the posterior, record)."""
 
-    def predict_one(self, i: Array, state_i: State, force_lvlh_n: Array) -> State:
-        """The prior at the next period's start under the law's commanded force (3,), N."""
+    def predict_one(self, i: Array, state_i: State, commands: Mapping[str, Array]) -> State:
+        """The prior at the next period's start under the law's commands ``{name: (3,)}``."""
 
     def output_specs(self) -> dict[str, OutputSpec]:
         """How each name ``update_one`` records appears in the dataset (per spacecraft)."""
 
+    def true_state(self, r_eci: Any, v_eci: Any) -> Any:
+        """The truth of the estimate from recorded ECI states (T, n, 3): (T, n, k) NumPy."""
 
-@dataclasses.dataclass(frozen=True)
-class OptionalMember:
-    """An attribute a part of ``roles`` may define; a part without it behaves as ``default``.
-
-    Attributes
-    ----------
-    roles : tuple of str
-        The roles whose parts may define it (:data:`PROTOCOLS`' keys).
-    types : tuple of type
-        What its value must be (``isinstance``), named in ``what``.
-    what : str
-        Its type in words (``"a bool"``).
-    default : object
-    doc : str
-        What it means and who reads it.
-    """
-
-    roles: tuple
-    types: tuple
-    what: str
-    default: Any
-    doc: str
-
-
-OPTIONAL = {
-    "local": OptionalMember(
-        ("controller",), (bool,), "a bool", False,
-        "True: one spacecraft's flight software (:class:`LocalController`); the engine runs one copy per "
-        "spacecraft (coopsat.sim.flight_software)."),
-    "reads_own": OptionalMember(
-        ("controller",), (bool,), "a bool", False,
-        "True: the per-spacecraft form (``step_one``) reads, per link, its own outbox of the instant the link's "
-        "message was sent (``inbox_i.own``); else ``own`` is empty. The engine and software in the loop deliver it."),
-    "per_spacecraft_refusal": OptionalMember(
-        ("controller",), (str, type(None)), "a str or None", None,
-        "Why a formation-wide law offers no per-spacecraft form (``reads``, ``outbox_one``, ``step_one``): "
-        "software in the loop quotes it when it refuses the law."),
-    "lossy": OptionalMember(
-        ("network",), (bool,), "a bool", False,
-        "True: ``deliver`` may lose a message. Software in the loop then loses a silent spacecraft's links by the "
-        "network's rule for a lost message (``hold``); else it drops them (weight 0)."),
-    "hold": OptionalMember(
-        ("network",), (bool,), "a bool", False,
-        "True: a lost message is replaced by the last one the link delivered (its weight kept); False: its term "
-        "is dropped (weight 0). Read where ``lossy`` is True."),
-}
-"""Every optional member of a part, by name (:class:`OptionalMember`): what callers may read of a
-part besides its protocol's members, each with its type and default."""
-
-
-def optional(part: Any, name: str) -> Any:
-    """``part``'s optional member ``name`` (a key of :data:`OPTIONAL`), or its default where the
-    part does not define it."""
-    return getattr(part, name, OPTIONAL[name].default)
+    def estimated(self, n: int) -> list[int]:
+        """The spacecraft whose estimates are judged against the truth."""
 
 
 PROTOCOLS = {

@@ -297,13 +297,15 @@ def _navigated(navigation, law, kind):
     (:mod:`coopsat.control.navigated`)."""
     from coopsat.control.navigated import Navigated
 
-    if not all(hasattr(law, a) for a in ("reads", "outbox_one", "step_one")) or navigation.provides not in law.reads:
+    provides = ", ".join(navigation.provides)
+    if not all(hasattr(law, a) for a in ("reads", "outbox_one", "step_one")) or not set(navigation.provides) & set(law.reads):
         raise ScenarioError(
-            f"navigation: controller kind '{kind}' does not read {navigation.provides} in a per-spacecraft form, so it "
-            f"cannot fly on the filter's estimate"
+            f"navigation: controller kind '{kind}' does not read {provides} in a per-spacecraft form, so it cannot fly on "
+            f"the filter's estimate"
         )
-    if "force_lvlh" not in law.commands:
-        raise ScenarioError(f"navigation: the filter carries its estimate under force_lvlh, which controller kind '{kind}' does not command")
+    why = navigation.check_law(law, kind)
+    if why:
+        raise ScenarioError(f"navigation: {why}")
     return Navigated(navigation, law)
 
 

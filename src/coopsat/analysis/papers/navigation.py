@@ -7,11 +7,13 @@ LVLH frame (:func:`coopsat.geometry.frames.eci_to_lvlh` of the ECI truth):
 
 * ``nav_error_lvlh`` (series): ``x̂ − x`` (m, m/s); ``nav_sigma_lvlh``: ``√diag P``.
 * ``nees`` (series): ``(x̂ − x)ᵀ P⁻¹ (x̂ − x)``, χ²(6) for a consistent filter; NaN for the chief.
-* ``nees_mean``: its mean over the deputies and the samples after the first
-  (the first is the drawn initial error); ``nees_bound_low``, ``nees_bound_high``: the two-sided
-  95 % band of that mean, ``χ²_{6N}(0.025, 0.975) / N`` with N the number of terms averaged
-  (the samples treated as independent: an approximation, since successive errors correlate).
-  ``nees_consistent``: the mean inside the band.
+* ``nees_mean``: its mean over the judged spacecraft and the samples after the first (the first
+  is the drawn initial error); ``nees_bound_low``, ``nees_bound_high``: the two-sided 95 % band
+  of that mean, ``χ²_{6N}(0.025, 0.975) / N``, with N the number of *independent* values it
+  averages, ``nees_effective_samples``: successive errors of one filter correlate, so each
+  spacecraft's series counts ``T / τ`` values, τ its integrated autocorrelation time (Sokal's
+  window; :func:`effective_count`). Counting every sample as independent would give a band
+  several times too narrow. ``nees_consistent``: the mean inside the band.
 * ``nis_mean_gnss`` / ``nis_mean_isl``: the mean normalised innovation squared over the updates
   recorded (χ²(6) / χ²(2)), with their 95 % bands ``nis_bound_*_{low,high}``.
 * ``nav_position_error_rms_m``, ``nav_velocity_error_rms_m_s``: the RMS estimate error over the
@@ -28,38 +30,49 @@ FIGURES = "coopsat.plots.navigation"
 _DOF = {"gnss": 6, "isl": 2}
 
 
-def true_relative_state(r_eci, v_eci, chief):
-    """Every spacecraft's true state relative to the chief, the chief's LVLH frame, (T, n, 6).
-
-    Parameters
-    ----------
-    r_eci, v_eci : (T, n, 3)
-        Truth, m and m/s, ECI.
-    chief : int
-    """
-    from coopsat.geometry.frames import eci_to_lvlh
-
-    c = slice(chief, chief + 1)
-    rho, rho_dot = eci_to_lvlh(r_eci[:, c], v_eci[:, c], r_eci, v_eci)
-    return np.concatenate([np.asarray(rho), np.asarray(rho_dot)], axis=-1)
-
-
 def nees(error, covariance):
     """``eᵀ P⁻¹ e`` for errors (..., 6) and covariances (..., 6, 6)."""
     return np.einsum("...i,...i->...", error, np.linalg.solve(covariance, error[..., None])[..., 0])
 
 
+def effective_count(values):
+    """Independent samples a correlated series is worth, ``T / τ`` with
+    ``τ = 1 + 2 Σ_{k=1}^{W} ρ_k`` (ρ the sample autocorrelation; W the first lag with
+    ``W ≥ 5 τ(W)``, Sokal's automatic window), in ``[1, T]``.
+
+    Parameters
+    ----------
+    values : (T,)
+    """
+    x = np.asarray(values, dtype=float) - np.mean(values)
+    t = x.size
+    if t < 2 or not np.any(x):
+        return float(t)
+    spectrum = np.fft.rfft(x, 2 * t)
+    acf = np.fft.irfft(spectrum * np.conj(spectrum))[:t]
+    rho = acf / acf[0]
+    tau = 1.0 + 2.0 * np.cumsum(rho[1:])
+    window = np.arange(1, t)
+    stop = np.flatnonzero(window >= 5.0 * tau)
+    tau_int = tau[stop[0]] if stop.size else tau[-1]
+    return float(np.clip(t / max(tau_int, 1.0), 1.0, t))
+
+
 def chi2_band(dof, count, level=0.95):
-    """The two-sided ``level`` band of the mean of ``count`` independent χ²(``dof``) values."""
+    """The two-sided ``level`` band of the mean of ``count`` independent χ²(``dof``) values
+    (``count`` may be fractional: an effective number)."""
     from scipy.stats import chi2
 
     tail = 0.5 * (1.0 - level)
     return chi2.ppf(tail, dof * count) / count, chi2.ppf(1.0 - tail, dof * count) / count
 
 
-def _deputies(built):
-    chief = int(built.system.controller.navigation.chief)
-    return chief, np.array([i for i in range(len(built.names)) if i != chief])
+def _judged(built):
+    """The filter, and the spacecraft whose estimates it judges (not the chief of a relative
+    filter) and those it does not."""
+    nav = built.system.controller.navigation
+    judged = np.array(nav.estimated(len(built.names)), dtype=int)
+    return nav, judged, np.setdiff1d(np.arange(len(built.names)), judged)
 
 
 def series(ds, built):
@@ -67,15 +80,15 @@ def series(ds, built):
     spacecraft), NaN for the chief."""
     import xarray as xr
 
-    chief, deputies = _deputies(built)
-    truth = true_relative_state(ds["r_eci"].values, ds["v_eci"].values, chief)
+    nav, deputies, others = _judged(built)
+    truth = nav.true_state(ds["r_eci"].values, ds["v_eci"].values)
     error = ds["nav_estimate_lvlh"].values - truth
     cov = ds["nav_covariance_lvlh"].values
     sigma = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0.0, None))
     value = np.full(error.shape[:2], np.nan)
     value[:, deputies] = nees(error[:, deputies], cov[:, deputies])
-    error[:, chief] = np.nan
-    sigma[:, chief] = np.nan
+    error[:, others] = np.nan
+    sigma[:, others] = np.nan
     dims = ("time", "spacecraft", "nav_state")
     return {
         "nav_error_lvlh": xr.DataArray(error, dims=dims, attrs={
@@ -88,12 +101,14 @@ def series(ds, built):
 
 
 def metrics(ds, built):
-    chief, deputies = _deputies(built)
+    _, deputies, _ = _judged(built)
     have = series(ds, built) if "nees" not in ds else {k: ds[k] for k in ("nav_error_lvlh", "nav_sigma_lvlh", "nees")}
     values = have["nees"].values[1:, deputies]
     err = have["nav_error_lvlh"].values[:, deputies]
     m = {"nees_mean": float(values.mean())}
-    m["nees_bound_low"], m["nees_bound_high"] = (float(b) for b in chi2_band(6, values.size))
+    count = sum(effective_count(values[:, k]) for k in range(values.shape[1]))
+    m["nees_effective_samples"] = count
+    m["nees_bound_low"], m["nees_bound_high"] = (float(b) for b in chi2_band(6, count))
     m["nees_consistent"] = bool(m["nees_bound_low"] <= m["nees_mean"] <= m["nees_bound_high"])
     m["nav_position_error_rms_m"] = float(np.sqrt(np.mean(np.sum(err[..., :3] ** 2, axis=-1))))
     m["nav_velocity_error_rms_m_s"] = float(np.sqrt(np.mean(np.sum(err[..., 3:] ** 2, axis=-1))))

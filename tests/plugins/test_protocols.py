@@ -27,6 +27,10 @@ VARIANTS = {
         "actuators": {"kind": "proportional-thrusters"},
         "sensors": [{"kind": "position-noise", "sigma_m": 1.0}, {"kind": "velocity-noise", "sigma_m_s": 0.01}],
     }),
+    "observation-orbit-ekf": ("observation-cooperative", {
+        "sensors": coopsat.Scenario.load("observation-cooperative")["sensors"] + [{"kind": "gnss", "sigma_m": 0.5, "sigma_m_s": 0.005}],
+        "navigation": {"kind": "orbit-ekf", "accel_psd_m2_s3": 1e-8, "initial_sigma_m": 5.0, "initial_sigma_m_s": 0.05},
+    }),
 }
 """Bundled scenarios changed to use the kinds no bundled scenario uses."""
 
@@ -43,6 +47,7 @@ def _parts(system):
         ("controller", system.controller), ("network", system.network),
         *[("sensor", p) for p in system.sensors], *[("actuator", p) for p in system.actuators],
         *[("disturbance", p) for p in system.disturbances],
+        *[("navigation", p) for p in [getattr(system.controller, "navigation", None)] if p is not None],
     ]
 
 

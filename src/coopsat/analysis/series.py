@@ -186,15 +186,16 @@ def _translation(ds):
 def _navigation(ds):
     """(name, label, unit, values, log, threshold) of a navigation filter's error, its claimed
     3σ (position, per LVLH axis) and its NEES, where the run has them."""
-    if "nav_error_lvlh" not in ds:
+    if "nav_error" not in ds:
         return []
+    frame = ds["nav_error"].attrs.get("frame", "")
     position = {"nav_state": "component"}
     xyz = {"component": ["x", "y", "z"]}
-    error = ds["nav_error_lvlh"].isel(nav_state=slice(0, 3)).rename(position).assign_coords(xyz)
-    sigma = ds["nav_sigma_lvlh"].isel(nav_state=slice(0, 3)).rename(position).assign_coords(xyz)
+    error = ds["nav_error"].isel(nav_state=slice(0, 3)).rename(position).assign_coords(xyz)
+    sigma = ds["nav_sigma"].isel(nav_state=slice(0, 3)).rename(position).assign_coords(xyz)
     return [
-        ("nav_position_error_m", "navigation estimate minus truth, position (chief's LVLH)", "m", error, False, None),
-        ("nav_position_3sigma_m", "navigation filter's 3σ, position (chief's LVLH)", "m", 3.0 * sigma, False, None),
+        ("nav_position_error_m", f"navigation estimate minus truth, position ({frame})", "m", error, False, None),
+        ("nav_position_3sigma_m", f"navigation filter's 3σ, position ({frame})", "m", 3.0 * sigma, False, None),
         ("nees", "navigation filter's NEES (6 when consistent)", "1", ds["nees"], True, 6.0),
     ]
 

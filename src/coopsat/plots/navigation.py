@@ -10,34 +10,36 @@ from matplotlib.figure import Figure
 
 from coopsat.analysis.papers.navigation import chi2_band, effective_count, series
 
-_AXES = ("along-track x", "cross-track y", "radial z (nadir)")
+_AXES = {"LVLH": ("along-track x", "cross-track y", "radial z (nadir)"), "ECI": ("x", "y", "z")}
 
 
 def _series(ds, built):
-    return {k: ds[k] for k in ("nav_error_lvlh", "nav_sigma_lvlh", "nees")} if "nees" in ds else series(ds, built)
+    return {k: ds[k] for k in ("nav_error", "nav_sigma", "nees")} if "nees" in ds else series(ds, built)
 
 
 def estimate_error_figure(ds, built, velocity=False):
-    """Estimate minus truth per LVLH axis (position, or velocity), each deputy, with ±3σ."""
+    """Estimate minus truth per axis (position, or velocity) of each spacecraft the filter
+    judges, with ±3σ."""
     have = _series(ds, built)
     t_s = ds["time"].values
     off, unit, what = (3, "m/s", "velocity") if velocity else (0, "m", "position")
     judged = built.system.controller.navigation.estimated(ds.sizes["spacecraft"])
     fig = Figure(figsize=(7.5, 7.0), layout="constrained")
-    for c, label in enumerate(_AXES):
+    frame = have["nav_error"].attrs.get("frame", "LVLH")
+    for c, label in enumerate(_AXES.get(frame, _AXES["ECI"])):
         ax = fig.add_subplot(3, 1, c + 1)
         for i, name in enumerate(ds["spacecraft"].values):
             if i not in judged:
                 continue
-            err = have["nav_error_lvlh"].values[:, i, off + c]
-            three = 3.0 * have["nav_sigma_lvlh"].values[:, i, off + c]
+            err = have["nav_error"].values[:, i, off + c]
+            three = 3.0 * have["nav_sigma"].values[:, i, off + c]
             (line,) = ax.plot(t_s, err, lw=0.8, label=f"{name}: error")
             ax.plot(t_s, three, color=line.get_color(), ls="--", lw=0.8, label=f"{name}: ±3σ")
             ax.plot(t_s, -three, color=line.get_color(), ls="--", lw=0.8)
         ax.set_ylabel(f"{label} ({unit})")
     fig.axes[0].legend(fontsize="small", loc="upper right")
     ax.set_xlabel("time (s)")
-    fig.suptitle(f"{ds.attrs.get('scenario_name', '')}: relative {what} estimate error (chief's LVLH)")
+    fig.suptitle(f"{ds.attrs.get('scenario_name', '')}: {what} estimate error ({frame})")
     return fig
 
 

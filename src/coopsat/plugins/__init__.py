@@ -86,6 +86,7 @@ PLUGIN_MODULES = (
     "coopsat.plugins.orbit_environment",
     "coopsat.plugins.observation",
     "coopsat.plugins.navigation",
+    "coopsat.plugins.orbit_navigation",
 )
 """Every module of coopsat that registers plug-ins (one line per module)."""
 

@@ -1,11 +1,13 @@
 """Navigation consistency (``[navigation]``): each spacecraft's estimate against the truth, as an
 engineer checks a Kalman filter.
 
-At every sample, spacecraft i's estimate ``x̂`` (``nav_estimate_lvlh``) and covariance ``P``
-(``nav_covariance_lvlh``) are compared with its true state relative to the chief in the chief's
-LVLH frame (:func:`coopsat.geometry.frames.eci_to_lvlh` of the ECI truth):
+At every sample, spacecraft i's estimate ``x̂`` (``nav_estimate_lvlh`` of a relative filter,
+``nav_estimate_eci`` of an orbit filter) and covariance ``P`` (``nav_covariance_*``) are compared
+with the truth of what it estimates (the filter's ``true_state`` of the recorded ECI states: the
+state relative to the chief in the chief's LVLH frame, or the ECI state itself):
 
-* ``nav_error_lvlh`` (series): ``x̂ − x`` (m, m/s); ``nav_sigma_lvlh``: ``√diag P``.
+* ``nav_error`` (series): ``x̂ − x`` (m, m/s; the estimate's frame in its ``frame`` attribute);
+  ``nav_sigma``: ``√diag P``.
 * ``nees`` (series): ``(x̂ − x)ᵀ P⁻¹ (x̂ − x)``, χ²(6) for a consistent filter; NaN for the chief.
 * ``nees_mean``: its mean over the judged spacecraft and the samples after the first (the first
   is the drawn initial error); ``nees_bound_low``, ``nees_bound_high``: the two-sided 95 % band
@@ -27,7 +29,7 @@ import numpy as np
 FIGURES = "coopsat.plots.navigation"
 """Module with the estimate-error and consistency figures."""
 
-_DOF = {"gnss": 6, "isl": 2}
+_DOF = {"gnss": 6, "isl": 2, "bearing": 2}
 
 
 def nees(error, covariance):
@@ -75,15 +77,23 @@ def _judged(built):
     return nav, judged, np.setdiff1d(np.arange(len(built.names)), judged)
 
 
+def recorded(ds):
+    """The names of the filter's recorded estimate and covariance (``nav_estimate_<frame>``)."""
+    estimate = next(k for k in ds.data_vars if str(k).startswith("nav_estimate_"))
+    return estimate, estimate.replace("nav_estimate_", "nav_covariance_")
+
+
 def series(ds, built):
-    """``nav_error_lvlh``, ``nav_sigma_lvlh`` (time, spacecraft, nav_state) and ``nees`` (time,
-    spacecraft), NaN for the chief."""
+    """``nav_error``, ``nav_sigma`` (time, spacecraft, nav_state) and ``nees`` (time,
+    spacecraft), NaN for a spacecraft the filter does not judge (the chief of a relative filter)."""
     import xarray as xr
 
     nav, deputies, others = _judged(built)
+    estimate, covariance = recorded(ds)
+    frame = ds[estimate].attrs.get("frame", "")
     truth = nav.true_state(ds["r_eci"].values, ds["v_eci"].values)
-    error = ds["nav_estimate_lvlh"].values - truth
-    cov = ds["nav_covariance_lvlh"].values
+    error = ds[estimate].values - truth
+    cov = ds[covariance].values
     sigma = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0.0, None))
     value = np.full(error.shape[:2], np.nan)
     value[:, deputies] = nees(error[:, deputies], cov[:, deputies])
@@ -91,10 +101,11 @@ def series(ds, built):
     sigma[:, others] = np.nan
     dims = ("time", "spacecraft", "nav_state")
     return {
-        "nav_error_lvlh": xr.DataArray(error, dims=dims, attrs={
-            "units": "m, m/s", "long_name": "navigation estimate minus truth, relative to the chief, the chief's LVLH frame"}),
-        "nav_sigma_lvlh": xr.DataArray(sigma, dims=dims, attrs={
-            "units": "m, m/s", "long_name": "standard deviation the navigation filter claims (square root of its covariance's diagonal)"}),
+        "nav_error": xr.DataArray(error, dims=dims, attrs={
+            "units": "m, m/s", "frame": frame, "long_name": f"navigation estimate minus truth ({frame})"}),
+        "nav_sigma": xr.DataArray(sigma, dims=dims, attrs={
+            "units": "m, m/s", "frame": frame,
+            "long_name": "standard deviation the navigation filter claims (square root of its covariance's diagonal)"}),
         "nees": xr.DataArray(value, dims=("time", "spacecraft"), attrs={
             "units": "1", "long_name": "normalised estimation error squared (chi-square with 6 dof when consistent)"}),
     }
@@ -102,9 +113,9 @@ def series(ds, built):
 
 def metrics(ds, built):
     _, deputies, _ = _judged(built)
-    have = series(ds, built) if "nees" not in ds else {k: ds[k] for k in ("nav_error_lvlh", "nav_sigma_lvlh", "nees")}
+    have = series(ds, built) if "nees" not in ds else {k: ds[k] for k in ("nav_error", "nav_sigma", "nees")}
     values = have["nees"].values[1:, deputies]
-    err = have["nav_error_lvlh"].values[:, deputies]
+    err = have["nav_error"].values[:, deputies]
     m = {"nees_mean": float(values.mean())}
     count = sum(effective_count(values[:, k]) for k in range(values.shape[1]))
     m["nees_effective_samples"] = count
@@ -112,8 +123,8 @@ def metrics(ds, built):
     m["nees_consistent"] = bool(m["nees_bound_low"] <= m["nees_mean"] <= m["nees_bound_high"])
     m["nav_position_error_rms_m"] = float(np.sqrt(np.mean(np.sum(err[..., :3] ** 2, axis=-1))))
     m["nav_velocity_error_rms_m_s"] = float(np.sqrt(np.mean(np.sum(err[..., 3:] ** 2, axis=-1))))
-    m["nav_position_sigma_mean_m"] = float(np.mean(np.linalg.norm(have["nav_sigma_lvlh"].values[:, deputies, :3], axis=-1)))
-    for k, name in enumerate(("gnss", "isl")):
+    m["nav_position_sigma_mean_m"] = float(np.mean(np.linalg.norm(have["nav_sigma"].values[:, deputies, :3], axis=-1)))
+    for k, name in enumerate(str(m) for m in ds["nav_updated"].coords["nav_measurement"].values):
         used = ds["nav_updated"].values[:, deputies, k] > 0.0
         if used.any():
             m[f"nis_mean_{name}"] = float(ds["nav_nis"].values[:, deputies, k][used].mean())

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from coopsat.workflows.campaign.consistency import pooled_nees, pooled_nees_html
 from coopsat.workflows.campaign.runner import MARKER, read_calls, read_results, read_series
 from coopsat.workflows.campaign.spec import CampaignError
 from coopsat.workflows.folders import atomic_folder
@@ -243,8 +244,9 @@ def write_report(out_dir):
     headline = headline_metrics(stats, spec["scenario_toml"])
     calls = read_calls(out_dir)
     name = Path(spec.get("campaign_file", "")).stem or spec["campaign"]["scenario"]
+    nees = pooled_nees(ok)
     parts = [f"<h1>Campaign {html.escape(name)}</h1>", summary_html(spec, name, rows, stats, headline, calls),
-             statistics_html(stats, sens)]
+             pooled_nees_html(nees), statistics_html(stats, sens)]
     figures = {}
     for metric, s in stats.items():
         y = np.array([np.nan if r.get(metric) is None else r[metric] for r in ok], dtype=float)
@@ -280,7 +282,8 @@ def write_report(out_dir):
     with atomic_folder(out_dir / "report", CampaignError) as tmp:
         (tmp / "index.html").write_text(page)
         (tmp / "statistics.json").write_text(
-            json.dumps({"summary": summary, "statistics": stats, "sensitivities": sens}, indent=2) + "\n")
+            json.dumps({"summary": summary, "statistics": stats, "sensitivities": sens, "navigation_consistency": nees},
+                       indent=2) + "\n")
         for stem, data in figures.items():
             (tmp / f"{stem}.png").write_bytes(data)
     return out_dir / "report" / "index.html"

@@ -25,7 +25,18 @@ Per control period of length T, at its start t (``update_one``):
    ``h(x) = [|ρ|, ρ·ρ̇/|ρ|]`` (the frame's rotation does not change a range), linearised about
    the prior (the EKF's only nonlinearity).
 
-Both updates in Joseph form. Then the law reads the posterior, and the estimate is carried to
+3. **Camera bearing** to the chief (``bearing`` sensor): the unit line of sight ``u`` the camera
+   measures in body axes, turned into ECI with the spacecraft's measured attitude (``q``: a star
+   tracker's, or the truth when no sensor measures it) and into LVLH axes with
+   :func:`lvlh_dcm` of the spacecraft's OWN GNSS fix (which is why the bearing needs ``gnss``).
+   Its own LVLH axes differ from the chief's by about ``|ρ|/r`` rad (1.5e-5 rad at 100 m in
+   LEO), below a camera's noise. The model is the direction to the chief, ``h(x) = −ρ/|ρ|``;
+   the residual is taken in a basis ``(e₁, e₂)`` across the predicted direction,
+   ``z = [e₁·u, e₂·u]`` predicted ``[0, 0]`` (a 3-vector residual of a unit vector would have a
+   singular 3×3 R), with ``H = [e₁; e₂] ∂h/∂x``, ``∂h/∂ρ = −(I − ĥĥᵀ)/|ρ|``, ``∂h/∂ρ̇ = 0``, and
+   ``R = σ² I₂``. The update is invariant to the basis chosen across ``ĥ`` (R is isotropic).
+
+All updates in Joseph form. Then the law reads the posterior, and the estimate is carried to
 the next period with the Clohessy–Wiltshire model (``x⁺ = Φ x + Γ u``, ``P⁺ = Φ P Φᵀ + Q``),
 ``u`` the law's commanded ``force_lvlh`` over the spacecraft's mass (the thrusters' dead zone
 and saturation are not modelled: process noise).
@@ -43,9 +54,11 @@ import numpy as np
 
 from coopsat.core.parts import OutputSpec, part
 from coopsat.geometry.frames import eci_to_lvlh, lvlh_dcm
+from coopsat.geometry.quaternion import quat_rotate
 
 _STATE = ("x", "y", "z", "vx", "vy", "vz")
 _DRAW = 17  # tag of the initial-error draw in the filter's key
+_MEASUREMENTS = ("gnss", "isl", "bearing")  # the recorded nav_measurement coordinate
 
 
 def discretise(n_rad_s, period_s, q_m2_s3, max_periods):
@@ -132,12 +145,62 @@ def range_model(x):
     return jnp.stack([rng, rate]), h
 
 
+def bearing_model(x):
+    """A basis across the predicted direction to the chief and the Jacobian of the bearing
+    residual in it.
+
+    Parameters
+    ----------
+    x : (6,)
+        Relative state ``[ρ, ρ̇]``, m and m/s, LVLH.
+
+    Returns
+    -------
+    basis : (2, 3)
+        Rows ``e₁, e₂``: orthonormal, perpendicular to ``ĥ = −ρ/|ρ|`` (LVLH components).
+    h : (2, 6)
+        ``[e₁; e₂] ∂ĥ/∂x``: ``∂ĥ/∂ρ = −(I − ĥĥᵀ)/|ρ|`` (1/m), zero for ``ρ̇``.
+    """
+    rho = x[:3]
+    rng = jnp.sqrt(rho @ rho)
+    # The chief's own ρ is zero (its update is never used): divide by 1 there, not by 0.
+    rng = jnp.where(rng > 0.0, rng, 1.0)
+    h_hat = -rho / rng
+    # e₁ from the LVLH axis least along ĥ: never parallel to it, so the basis is well conditioned.
+    axis = jnp.eye(3)[jnp.argmin(jnp.abs(h_hat))]
+    e1 = axis - (axis @ h_hat) * h_hat
+    e1 = e1 / jnp.sqrt(e1 @ e1)
+    basis = jnp.stack([e1, jnp.cross(h_hat, e1)])
+    dh_drho = -(jnp.eye(3) - jnp.outer(h_hat, h_hat)) / rng
+    return basis, jnp.concatenate([basis @ dh_drho, jnp.zeros((2, 3))], axis=1)
+
+
+def bearing_in_lvlh(u_b, q_bi, own_fix):
+    """A line of sight measured in body axes, in the LVLH axes of the spacecraft's own fix.
+
+    Parameters
+    ----------
+    u_b : (3,)
+        Unit line of sight, body axes.
+    q_bi : (4,)
+        The spacecraft's attitude (scalar-first, body to inertial).
+    own_fix : (6,)
+        Its own GNSS fix, ECI: position (m) and velocity (m/s).
+
+    Returns
+    -------
+    jax.Array, (3,)
+        ``C_lvlh_eci(own fix) q_bi ⊗ u_b ⊗ q_bi*``.
+    """
+    return lvlh_dcm(own_fix[:3], own_fix[3:]) @ quat_rotate(q_bi, u_b)
+
+
 def _select(use, new, old):
     """``new`` where ``use`` else ``old``, leaf by leaf."""
     return jax.tree_util.tree_map(lambda a, b: jnp.where(use, a, b), new, old)
 
 
-@part(static=("gnss_every", "isl_every", "draw_initial"))
+@part(static=("gnss_every", "isl_every", "bearing_every", "draw_initial"))
 class RelativeEkf:
     """One spacecraft's relative-navigation EKF (see the module docstring).
 
@@ -155,11 +218,13 @@ class RelativeEkf:
         Variance of the difference of two receivers' fixes per ECI axis, m², m²/s².
     r_isl : (2,)
         Variance of range (m²) and range-rate (m²/s²).
+    r_bearing : scalar
+        Variance of the bearing's angular error about each axis across the line of sight, rad².
     mass_kg : (n,)
     chief : int scalar
     period_s : scalar
-    gnss_every, isl_every : int
-        Static: control periods between fixes / ranges; 0 when the filter does not use it.
+    gnss_every, isl_every, bearing_every : int
+        Static: control periods between fixes / ranges / bearings; 0 when the filter does not use it.
     draw_initial : bool
         Static: start from ``x0 + σ₀ ν`` (ν drawn from the spacecraft's key), not from ``x0``.
     """
@@ -171,11 +236,13 @@ class RelativeEkf:
     sigma0: jnp.ndarray
     r_gnss_eci: jnp.ndarray
     r_isl: jnp.ndarray
+    r_bearing: jnp.ndarray
     mass_kg: jnp.ndarray
     chief: jnp.ndarray
     period_s: jnp.ndarray
     gnss_every: int = 0
     isl_every: int = 0
+    bearing_every: int = 0
     draw_initial: bool = True
 
     provides = ("x_lvlh",)
@@ -183,7 +250,10 @@ class RelativeEkf:
     @property
     def reads(self):
         """The measured quantities the filter reads."""
-        return (("gnss",) if self.gnss_every else ()) + (("isl",) if self.isl_every else ())
+        quantities = (("gnss",) if self.gnss_every else ()) + (("isl",) if self.isl_every else ())
+        # The bearing is turned into LVLH axes with the attitude and the spacecraft's own fix.
+        quantities += ("bearing", "q", "gnss") if self.bearing_every else ()
+        return tuple(dict.fromkeys(quantities))
 
     @property
     def reads_own(self):
@@ -261,17 +331,30 @@ class RelativeEkf:
         x, p, nis = joseph_update(state_i["x"], state_i["p"], z[:2] - predicted, h, jnp.diag(self.r_isl))
         return _select(use, {**state_i, "x": x, "p": p}, state_i), jnp.where(use, nis, 0.0), use
 
+    def _bearing(self, state_i, t, y_i):
+        """The camera-bearing update, when the camera read this period and saw the chief."""
+        frame = jnp.round(t / self.period_s).astype(jnp.int64)
+        z = y_i["bearing"]
+        use = (frame % self.bearing_every == 0) & (z[3] > 0.0)
+        basis, h = bearing_model(state_i["x"])
+        residual = basis @ bearing_in_lvlh(z[:3], y_i["q"], y_i["gnss"])  # predicted: [0, 0]
+        x, p, nis = joseph_update(state_i["x"], state_i["p"], residual, h, self.r_bearing * jnp.eye(2))
+        return _select(use, {**state_i, "x": x, "p": p}, state_i), jnp.where(use, nis, 0.0), use
+
     def update_one(self, i, t, y_i, inbox_i, state_i, key_i):
         """Spacecraft i's posterior at t: (state, ``{"x_lvlh": (6,)}``, record). The chief's
         estimate (and recorded covariance) is zero."""
         state_i = self._initial(state_i, key_i)
-        nis, used = jnp.zeros(2), jnp.zeros(2)
+        nis, used = jnp.zeros(len(_MEASUREMENTS)), jnp.zeros(len(_MEASUREMENTS))
         if self.gnss_every:
             state_i, nis_g, use_g = self._gnss(state_i, t, y_i, inbox_i)
             nis, used = nis.at[0].set(nis_g), used.at[0].set(use_g.astype(float))
         if self.isl_every:
             state_i, nis_r, use_r = self._isl(state_i, t, y_i)
             nis, used = nis.at[1].set(nis_r), used.at[1].set(use_r.astype(float))
+        if self.bearing_every:
+            state_i, nis_b, use_b = self._bearing(state_i, t, y_i)
+            nis, used = nis.at[2].set(nis_b), used.at[2].set(use_b.astype(float))
         estimate = self.estimate_of(i, state_i)
         record = {"nav_estimate_lvlh": estimate["x_lvlh"], "nav_covariance_lvlh": jnp.where(i == self.chief, 0.0, state_i["p"]),
                   "nav_nis": nis, "nav_updated": used}
@@ -316,12 +399,12 @@ class RelativeEkf:
             ),
             "nav_nis": OutputSpec(
                 ("nav_measurement",), "1", "",
-                "normalised innovation squared of the period's update (chi-square with 6 dof for gnss, 2 for isl; "
-                "0 when there was none)",
-                coords=(("nav_measurement", ("gnss", "isl")),),
+                "normalised innovation squared of the period's update (chi-square with 6 dof for gnss, 2 for isl and "
+                "bearing; 0 when there was none)",
+                coords=(("nav_measurement", _MEASUREMENTS),),
             ),
             "nav_updated": OutputSpec(
                 ("nav_measurement",), "1", "", "1 when the filter used that measurement this period, else 0",
-                coords=(("nav_measurement", ("gnss", "isl")),),
+                coords=(("nav_measurement", _MEASUREMENTS),),
             ),
         }

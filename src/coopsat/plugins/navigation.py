@@ -3,8 +3,9 @@ truth.
 
 ``kind = "relative-ekf"``: every spacecraft's flight software runs an extended Kalman filter of
 its state relative to the chief in the chief's LVLH frame (:mod:`coopsat.control.relative_ekf`)
-on differential GNSS (the chief's fix over the network) and inter-satellite range and
-range-rate, and the law reads the estimate as its ``x_lvlh`` (:mod:`coopsat.control.navigated`).
+on differential GNSS (the chief's fix over the network), inter-satellite range and range-rate,
+and a camera's bearing to the chief, and the law reads the estimate as its ``x_lvlh``
+(:mod:`coopsat.control.navigated`).
 The filter's measurement noise is the sensors' own (their tables), its process noise the
 table's. Design checks: every covariance positive definite, every measurement's rate a whole
 multiple of the control period (the sensors' own check), the filter's sensors present.
@@ -19,7 +20,7 @@ from coopsat.plugins import DesignCheck, DesignError, Plugin, register
 from coopsat.plugins.sensors import PerAxis
 from coopsat.plugins.tables import MAX_TIME_S, Table, whole_ratio
 
-_SENSOR_QUANTITY = {"gnss": "gnss", "isl-range": "isl"}
+_SENSOR_QUANTITY = {"gnss": "gnss", "isl-range": "isl", "camera-bearing": "bearing"}
 
 
 class RelativeEkf(Table):
@@ -27,9 +28,10 @@ class RelativeEkf(Table):
 
     kind: Literal["relative-ekf"]
     chief: str = Field(description="The reference spacecraft: the origin of every estimated relative state.")
-    measurements: list[Literal["gnss", "isl-range"]] = Field(
+    measurements: list[Literal["gnss", "isl-range", "camera-bearing"]] = Field(
         min_length=1, description='The sensors the filter uses, by kind: "gnss" (differential, the chief\'s fix over '
-                                  'the network), "isl-range" (range and range-rate to the chief).'
+                                  'the network), "isl-range" (range and range-rate to the chief), "camera-bearing" '
+                                  '(the line of sight to the chief; needs "gnss").'
     )
     accel_psd_m2_s3: PerAxis = Field(
         description="Process noise: spectral density of the white acceleration the model leaves out, per LVLH axis, m²/s³."
@@ -86,6 +88,17 @@ def _isl_noise(table, ctx, chief):
     return r
 
 
+def _bearing_noise(table, ctx, chief, use):
+    """Variance of the bearing's angular error about each axis across the line of sight, rad²."""
+    if ctx.index(table.to, "sensors.to") != chief:
+        raise DesignError(f'navigation: the "camera-bearing" sensor looks at {table.to}, the filter estimates relative to the chief')
+    if "gnss" not in use:
+        raise DesignError('navigation.measurements: "camera-bearing" needs "gnss" too (its own fix gives the LVLH axes of the line of sight)')
+    if table.sigma_rad <= 0.0:
+        raise DesignError('navigation: the "camera-bearing" sensor\'s sigma_rad must be > 0 (the filter needs R positive definite)')
+    return table.sigma_rad**2
+
+
 def _every(table, ctx, kind):
     period = _sensor(ctx, kind).period_s
     return 1 if period is None else whole_ratio(period, ctx.period_s)
@@ -131,13 +144,15 @@ def _build(table, ctx):
     use = set(table.measurements)
     r_gnss = _gnss_noise(_sensor(ctx, "gnss")) if "gnss" in use else np.ones(6)
     r_isl = _isl_noise(_sensor(ctx, "isl-range"), ctx, chief) if "isl-range" in use else np.ones(2)
+    r_bearing = _bearing_noise(_sensor(ctx, "camera-bearing"), ctx, chief, use) if "camera-bearing" in use else 1.0
     phi_k, gamma, q_k = discretise(chief_mean_motion(ctx, chief), ctx.period_s, q, max_age)
-    arrays = (phi_k, q_k, gamma, _initial_relative(ctx, chief), sigma0, r_gnss, r_isl, np.asarray(masses, dtype=float),
-              np.int32(chief), ctx.period_s)
+    arrays = (phi_k, q_k, gamma, _initial_relative(ctx, chief), sigma0, r_gnss, r_isl, r_bearing,
+              np.asarray(masses, dtype=float), np.int32(chief), ctx.period_s)
     return Part(
         *as_arrays(arrays),
         gnss_every=_every(table, ctx, "gnss") if "gnss" in use else 0,
         isl_every=_every(table, ctx, "isl-range") if "isl-range" in use else 0,
+        bearing_every=_every(table, ctx, "camera-bearing") if "camera-bearing" in use else 0,
         draw_initial=table.draw_initial_error,
     )
 

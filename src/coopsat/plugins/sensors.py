@@ -1,7 +1,7 @@
 """Sensors (``[[sensors]]``): star tracker, rate gyro, navigation (position / velocity) noise,
 relative position between spacecraft, relative navigation in the chief's LVLH frame, a GNSS
-receiver, an inter-satellite range / range-rate link, and the sun sensor and magnetometer of an
-Earth orbit.
+receiver, an inter-satellite range / range-rate link, a camera's bearing to another spacecraft,
+and the sun sensor and magnetometer of an Earth orbit.
 
 Each table replaces one quantity the flight software reads by what a sensor measures; a
 quantity no sensor measures is read perfectly. Every sensor may update more slowly than the
@@ -15,7 +15,7 @@ import numpy as np
 from pydantic import Field, PlainValidator
 
 from coopsat.plugins import DesignError, Plugin, register
-from coopsat.plugins.tables import Record, Table, Vec3, whole_ratio
+from coopsat.plugins.tables import Record, Table, UnitVector, Vec3, whole_ratio
 
 
 def _per_axis_sigma(v):
@@ -138,6 +138,23 @@ class IslRange(Table):
     period_s: float | None = _PERIOD
 
 
+class CameraBearing(Table):
+    """``kind = "camera-bearing"``: each spacecraft's unit line of sight to one target spacecraft in its body axes,
+    when the target is in the camera's view (needs ``[orbit]``)."""
+
+    kind: Literal["camera-bearing"]
+    to: str = Field(description="The target spacecraft every other's camera looks at.")
+    sigma_rad: float = Field(
+        0.0, ge=0, le=1.0, description="Standard deviation of the angular error about each axis across the line of sight, rad."
+    )
+    boresight_b: UnitVector = Field((1.0, 0.0, 0.0), description="The camera's axis, body frame (a unit vector; normalised).")
+    fov_half_angle_deg: float = Field(
+        gt=0, le=180, description="Half angle of the field of view about the boresight, deg (180: the whole sky)."
+    )
+    max_range_m: float | None = Field(None, gt=0, description="Farthest target seen, m (default: no limit).")
+    period_s: float | None = _PERIOD
+
+
 class SunSensor(Table):
     """``kind = "sun-sensor"``: the direction to the Sun in body axes, none in the Earth's shadow (needs an Earth ``[orbit]``)."""
 
@@ -157,7 +174,8 @@ class Magnetometer(Table):
 
 _QUANTITY = {
     "star-tracker": "q", "gyro": "omega", "position-noise": "r_eci", "velocity-noise": "v_eci", "relative-position": "rho",
-    "relative-navigation": "x_lvlh", "gnss": "gnss", "isl-range": "isl", "sun-sensor": "sun_b", "magnetometer": "b_b",
+    "relative-navigation": "x_lvlh", "gnss": "gnss", "isl-range": "isl", "camera-bearing": "bearing",
+    "sun-sensor": "sun_b", "magnetometer": "b_b",
 }
 """The measured quantity each kind replaces."""
 
@@ -179,7 +197,7 @@ def _every(table, ctx):
             raise DesignError(
                 f"{where}: measures {quantity} like sensors[{k}]; give one sensor per measured quantity"
             )
-    if quantity in ("r_eci", "v_eci", "rho", "x_lvlh", "gnss", "isl") and ctx.scenario.orbit is None:
+    if quantity in ("r_eci", "v_eci", "rho", "x_lvlh", "gnss", "isl", "bearing") and ctx.scenario.orbit is None:
         raise DesignError(
             f'{where}: kind = "{table.kind}" measures {quantity}, which needs an [orbit] table (this run is attitude only)'
         )
@@ -290,6 +308,21 @@ def _build_isl_range(table, ctx):
     return Part(*as_arrays(arrays), every=every)
 
 
+def _build_camera_bearing(table, ctx):
+    from coopsat.sensors.navigation_sensors import CameraBearing as Part
+    from coopsat.sim.system import as_arrays
+
+    every = _every(table, ctx)
+    target = ctx.index(table.to, f"{_place(table, ctx)}.to")
+    boresight = np.asarray(table.boresight_b, dtype=float)
+    max_range_m = np.inf if table.max_range_m is None else table.max_range_m
+    arrays = (
+        np.float64(table.sigma_rad), boresight / np.linalg.norm(boresight), np.cos(np.radians(table.fov_half_angle_deg)),
+        np.int32(target), max_range_m,
+    )
+    return Part(*as_arrays(arrays), every=every)
+
+
 def _build_sun_sensor(table, ctx):
     from coopsat.plugins.earth_environment import epoch
     from coopsat.sensors.environment_sensors import SunSensor as Part
@@ -316,5 +349,6 @@ register(Plugin("sensor", "relative-position", RelativePosition, _build_relative
 register(Plugin("sensor", "relative-navigation", RelativeNavigation, _build_relative_navigation))
 register(Plugin("sensor", "gnss", Gnss, _build_gnss))
 register(Plugin("sensor", "isl-range", IslRange, _build_isl_range))
+register(Plugin("sensor", "camera-bearing", CameraBearing, _build_camera_bearing))
 register(Plugin("sensor", "sun-sensor", SunSensor, _build_sun_sensor))
 register(Plugin("sensor", "magnetometer", Magnetometer, _build_magnetometer))

@@ -1,4 +1,5 @@
-"""Navigation sensors of an orbit: a GNSS receiver and an inter-satellite range / range-rate link.
+"""Navigation sensors of an orbit: a GNSS receiver, an inter-satellite range / range-rate link and
+a camera's bearing to another spacecraft.
 
 Both read a derived quantity (sensor protocol as in :mod:`coopsat.sensors.parts`), its truth
 computed from the plant state, component-major ``(k, n)``, spacecraft last:
@@ -6,7 +7,9 @@ computed from the plant state, component-major ``(k, n)``, spacecraft last:
 * ``"gnss"`` (6, n): each spacecraft's own absolute fix, ECI (GCRF): rows ``x, y, z`` (m) and
   ``vx, vy, vz`` (m/s);
 * ``"isl"`` (3, n): each spacecraft's range (m) and range-rate (m/s) to one target spacecraft
-  and whether the link is valid (1/0).
+  and whether the link is valid (1/0);
+* ``"bearing"`` (4, n): each spacecraft's unit line of sight to one target spacecraft in its
+  own body axes and whether the target is in the camera's view (1/0).
 
 GNSS error model, per component::
 
@@ -30,6 +33,7 @@ import jax
 import jax.numpy as jnp
 
 from coopsat.core.parts import OutputSpec, part, per_spacecraft_normal
+from coopsat.geometry.quaternion import cross, quat_rotate_inverse
 from coopsat.sensors.noise import white_noise
 
 # Tags folded into the sensor's key, one per noise term, so the terms never share draws.
@@ -243,5 +247,125 @@ class IslRange:
                 "range (m) and range-rate (m/s) to the target spacecraft as measured over the inter-satellite link, "
                 "and whether the link was valid (1/0), at the sample",
                 coords=(("isl_component", ("range", "range_rate", "valid")),),
+            )
+        }
+
+
+def line_of_sight(r_eci, q_bi, target):
+    """Every spacecraft's unit line of sight to one target spacecraft, in its own body axes.
+
+    Parameters
+    ----------
+    r_eci : (3, n)
+        Positions, m, ECI.
+    q_bi : (4, n)
+        Attitudes (scalar-first, body to inertial).
+    target : int scalar
+        Index of the target spacecraft.
+
+    Returns
+    -------
+    los_b : (3, n)
+        ``q_bi* ⊗ (r_target − r_i)/|r_target − r_i| ⊗ q_bi``; zero for the target itself.
+    distance_m : (n,)
+        ``|r_target − r_i|``, m; 0 for the target itself.
+    """
+    rho = r_eci[:, target][:, None] - r_eci
+    is_target = jnp.arange(r_eci.shape[-1]) == target
+    # The target's own ρ is zero: divide by 1 there, so nothing is NaN.
+    distance = jnp.sqrt(jnp.where(is_target, 1.0, jnp.sum(rho**2, axis=0)))
+    los_b = quat_rotate_inverse(q_bi, rho / distance, 0)
+    return jnp.where(is_target, 0.0, los_b), jnp.where(is_target, 0.0, distance)
+
+
+def rotate_across(u, dtheta):
+    """Unit vectors ``u`` turned by small rotations across themselves, renormalised.
+
+    Parameters
+    ----------
+    u : (3, n)
+        Unit vectors.
+    dtheta : (3, n)
+        Rotation vectors, rad; their components along ``u`` are removed first, so a rotation
+        about the line of sight (which leaves it unchanged) does not count.
+
+    Returns
+    -------
+    jax.Array, (3, n)
+        ``normalise(cos|δ| u + sin|δ| δ̂ × u)`` with ``δ = dθ − (dθ·u) u`` (Rodrigues' formula
+        for δ ⊥ u).
+    """
+    across = dtheta - jnp.sum(dtheta * u, axis=0) * u
+    angle = jnp.sqrt(jnp.sum(across**2, axis=0))
+    # sin|δ|/|δ| → 1 as |δ| → 0, without dividing by zero.
+    sinc = jnp.sinc(angle / jnp.pi)
+    turned = jnp.cos(angle) * u + sinc * cross(across, u, 0)
+    return turned / jnp.linalg.norm(turned, axis=0)
+
+
+@part(static=("every",))
+class CameraBearing:
+    """Camera: each spacecraft's unit line of sight to one target spacecraft in its body axes,
+    turned by a small random rotation across the line of sight.
+
+    The reading is ``(4, n)``: rows ``x, y, z`` (body axes, unit) and ``valid`` (1/0). The line of
+    sight is valid when the target is within ``fov_half_angle`` of the boresight and no further
+    than ``max_range_m``; an invalid column (and the target's own) is zero.
+
+    Attributes
+    ----------
+    sigma_rad : scalar
+        Standard deviation of the angular error about each axis across the line of sight, rad.
+    boresight_b : (3,)
+        The camera's axis, body frame, unit.
+    cos_half_fov : scalar
+        Cosine of the field of view's half angle.
+    target : int scalar
+        Index of the target spacecraft.
+    max_range_m : scalar
+        Farthest target seen, m (``inf``: no limit).
+    every : int
+        Static: control periods between updates.
+    """
+
+    sigma_rad: jnp.ndarray
+    boresight_b: jnp.ndarray
+    cos_half_fov: jnp.ndarray
+    target: jnp.ndarray
+    max_range_m: jnp.ndarray
+    every: int = 1
+
+    quantity = "bearing"
+    needs = ("q", "r_eci")
+
+    def truth(self, y, x, t=0.0):
+        """True line of sight in body axes and ``valid`` from the plant state, (4, n); zero where
+        invalid."""
+        los_b, distance = line_of_sight(x.r_eci, x.q_bi, self.target)
+        n = distance.shape[-1]
+        in_view = self.boresight_b @ los_b >= self.cos_half_fov
+        valid = (jnp.arange(n) != self.target) & in_view & (distance <= self.max_range_m)
+        return jnp.concatenate([jnp.where(valid, los_b, 0.0), valid[None].astype(los_b.dtype)], axis=0)
+
+    def init(self, truth_value, n):
+        return ()
+
+    def measure(self, truth_value, x, state, key):
+        """The noisy line of sight where valid, (4, n); the truth itself when ``sigma_rad`` is 0."""
+        n = truth_value.shape[-1]
+        valid = truth_value[3:]
+        dtheta = self.sigma_rad * per_spacecraft_normal(key, 3, n)
+        # An invalid column's zero vector would turn into NaN: turn a unit vector there instead.
+        u = jnp.where(valid > 0.0, truth_value[:3], jnp.array([1.0, 0.0, 0.0])[:, None])
+        noisy = jnp.where(self.sigma_rad == 0.0, truth_value[:3], rotate_across(u, dtheta))
+        return jnp.concatenate([jnp.where(valid > 0.0, noisy, 0.0), valid], axis=0), state
+
+    def output_specs(self):
+        return {
+            "measured_bearing": OutputSpec(
+                ("bearing_component",), "1", "body",
+                "unit line of sight to the target spacecraft as measured by the spacecraft's camera, and whether the "
+                "target was in view (valid, 1/0), at the sample",
+                coords=(("bearing_component", ("x", "y", "z", "valid")),),
             )
         }

@@ -1,10 +1,11 @@
-"""The relative-navigation EKF (``[navigation] kind = "relative-ekf"``) checked two ways.
+"""The relative-navigation EKF (``[navigation] kind = "relative-ekf"``) checked two ways, and its
+camera-bearing measurement's bad input.
 
 1. Against an independent plain-NumPy EKF written here from the equations alone (the CW state
    matrix of the LVLH axes x along-track, y along the negative orbit normal, z nadir; Φ by
-   ``expm``; Γ and Q by numerical quadrature; our own ECI→LVLH conversion; Joseph updates), fed
-   the measurements and commands a run recorded: the run's recorded posterior, covariance and
-   NIS must agree to 1e-9 at every sample. Nothing of ``coopsat.control.relative_ekf``,
+   ``expm``; Γ and Q by numerical quadrature; our own ECI→LVLH conversion and attitude matrix; a
+   bearing basis from an SVD; Joseph updates), fed the measurements and commands a run recorded:
+   the run's recorded posterior, covariance and NIS must agree to 1e-9 at every sample. Nothing of ``coopsat.control.relative_ekf``,
    ``coopsat.dynamics.cw`` or ``coopsat.geometry.frames`` is used by the reference filter.
 2. By Monte Carlo: in a setup where the filter's model is right (two-body, circular, no
    disturbances, no dead zone, GNSS errors white after differencing), its NEES is χ²(6); a
@@ -74,14 +75,39 @@ def _per_axis(value):
     return np.broadcast_to(np.asarray(value, dtype=float), (3,))
 
 
+def _body_to_eci(q):
+    """C_ib of a scalar-first Hamilton q_bi (body components to inertial), written out."""
+    q0, q1, q2, q3 = q / np.linalg.norm(q)
+    return np.array([
+        [q0**2 + q1**2 - q2**2 - q3**2, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
+        [2 * (q1 * q2 + q0 * q3), q0**2 - q1**2 + q2**2 - q3**2, 2 * (q2 * q3 - q0 * q1)],
+        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0**2 - q1**2 - q2**2 + q3**2],
+    ])
+
+
+def _bearing_update(x, p, u_b, q_bi, own_fix, sigma_rad):
+    """The camera's line of sight to the chief: body → ECI (attitude) → LVLH of the deputy's own
+    fix, compared with h = −ρ/|ρ| across ĥ. The basis across ĥ is the null space of ĥᵀ from an
+    SVD (not the filter's construction: the update does not depend on it, R being isotropic)."""
+    u = _dcm(own_fix[:3], own_fix[3:]) @ _body_to_eci(q_bi) @ u_b
+    rng = np.linalg.norm(x[:3])
+    h_hat = -x[:3] / rng
+    basis = np.linalg.svd(h_hat[None, :])[2][1:]  # (2, 3), orthonormal, ⊥ ĥ
+    h = np.zeros((2, 6))
+    h[:, :3] = basis @ (-(np.eye(3) - np.outer(h_hat, h_hat)) / rng)
+    return _joseph(x, p, basis @ u, h, sigma_rad**2 * np.eye(2))
+
+
 def _reference_filter(scenario, ds):
     """Replay the deputy's filter on the run's records: posterior (K, 6), covariance (K, 6, 6),
-    NIS (K, 2) [gnss, isl], at every sample."""
+    NIS (K, 3) [gnss, isl, bearing], at every sample."""
     raw = scenario.to_dict()
     nav = raw["navigation"]
     use_gnss, use_isl = "gnss" in nav["measurements"], "isl-range" in nav["measurements"]
+    use_bearing = "camera-bearing" in nav["measurements"]
     gnss = next(t for t in raw["sensors"] if t["kind"] == "gnss")
     isl = next(t for t in raw["sensors"] if t["kind"] == "isl-range")
+    camera = next((t for t in raw["sensors"] if t["kind"] == "camera-bearing"), None)
     mass = raw["spacecraft"][1]["mass_kg"]
     period = raw["controller"]["period_s"]
     mu = scenario.model.orbit.mu_m3_s2
@@ -99,9 +125,11 @@ def _reference_filter(scenario, ds):
     x = _relative(r_eci[0, 0], v_eci[0, 0], r_eci[0, 1], v_eci[0, 1])  # draw_initial_error = false
     p = np.diag(np.concatenate([_per_axis(nav["initial_sigma_m"]), _per_axis(nav["initial_sigma_m_s"])]) ** 2)
     fixes, ranges, force = ds["measured_gnss"].values, ds["measured_isl"].values, ds["force_command"].values
+    # No star tracker: the filter reads the true attitude.
+    bearings, attitudes = (ds["measured_bearing"].values, ds["q"].values) if use_bearing else (None, None)
     out_x, out_p, out_nis = [], [], []
     for k in range(ds.sizes["time"]):
-        nis = np.zeros(2)
+        nis = np.zeros(3)
         if use_gnss:
             chief_fix, own_fix = fixes[k, 0], fixes[k, 1]
             z = _relative(chief_fix[:3], chief_fix[3:], own_fix[:3], own_fix[3:])
@@ -116,6 +144,8 @@ def _reference_filter(scenario, ds):
             h[1, :3] = rho_dot / rng - rate * rho / rng**2
             h[1, 3:] = rho / rng
             x, p, nis[1] = _joseph(x, p, ranges[k, 1, :2] - np.array([rng, rate]), h, r_isl)
+        if use_bearing and bearings[k, 1, 3] > 0.0:
+            x, p, nis[2] = _bearing_update(x, p, bearings[k, 1, :3], attitudes[k, 1], fixes[k, 1], camera["sigma_rad"])
         out_x.append(x)
         out_p.append(p)
         out_nis.append(nis)
@@ -133,42 +163,92 @@ def _reference_filter(scenario, ds):
 _OFF_AXIS = {"spacecraft.1.relative.rho_lvlh_m": [-100.0, 10.0, 5.0], "controller.rho_target_lvlh_m": [-100.0, 10.0, 5.0]}
 
 
+# The pair keeps an inertially fixed attitude (body = ECI axes), and the line of sight from the
+# deputy to the chief 100 m ahead turns with the orbit (38° in 600 s). A camera looking along it
+# at t = 300 s, 12° either side, sees the chief from about 115 s to 485 s: bearings on and off.
+_CAMERA = {"kind": "camera-bearing", "to": "chief", "sigma_rad": 1e-4, "boresight_b": [-0.594, -0.763, -0.256],
+           "fov_half_angle_deg": 12.0}
+
+
+def _navigation_run(measurements, extra):
+    scenario = coopsat.Scenario.load("leo-pair-navigation").update({
+        "sim.t_final_s": 600.0, "navigation.draw_initial_error": False, "navigation.measurements": measurements, **extra,
+    })
+    if "camera-bearing" in measurements:
+        scenario = scenario.set("sensors", scenario["sensors"] + [_CAMERA])
+    return scenario, coopsat.run(scenario).dataset
+
+
 @pytest.mark.parametrize("measurements, extra", [
     (["gnss", "isl-range"], {}),
     (["gnss"], {}),
     (["isl-range"], _OFF_AXIS),
-], ids=["gnss+isl", "gnss", "isl"])
+    (["gnss", "camera-bearing"], {}),
+    (["gnss", "isl-range", "camera-bearing"], {}),
+], ids=["gnss+isl", "gnss", "isl", "gnss+bearing", "gnss+isl+bearing"])
 def test_recorded_filter_matches_an_independent_numpy_ekf(measurements, extra):
     """A 600 s leo-pair-navigation run (no drawn initial error) replayed through the NumPy
     filter above gives, at every one of the 121 samples, the deputy's recorded posterior
     (position to 1e-9 m absolute; velocity to 1e-9 of the run's largest relative-velocity
     component), covariance (|ΔP_ij| ≤ 1e-9 √(P_ii P_jj)) and NIS (1e-9 relative where the
-    measurement was used, exactly 0 where not), and the recorded ``nav_updated`` flags.
+    measurement was used, exactly 0 where not), and the recorded ``nav_updated`` flags (the
+    bearing's: where the camera saw the chief, a good part of the run but not all of it).
 
     Fails on any difference of model (Φ, Γ, Q, mean motion), frame conversion, measurement noise
     (scaling the reference's R by 1.01 gives differences of 6e-5 m and 1 % in P), update order,
     Jacobian, command timing or initialisation."""
-    scenario = coopsat.Scenario.load("leo-pair-navigation").update({
-        "sim.t_final_s": 600.0, "navigation.draw_initial_error": False, "navigation.measurements": measurements, **extra,
-    })
-    ds = coopsat.run(scenario).dataset
+    scenario, ds = _navigation_run(measurements, extra)
     x, p, nis = _reference_filter(scenario, ds)
 
     est = ds["nav_estimate_lvlh"].values[:, 1]
     cov = ds["nav_covariance_lvlh"].values[:, 1]
     rec_nis = ds["nav_nis"].values[:, 1]
-    used = np.array(["gnss" in measurements, "isl-range" in measurements], dtype=float)
-    np.testing.assert_array_equal(ds["nav_updated"].values[:, 1], np.broadcast_to(used, rec_nis.shape))
+    assert list(ds["nav_nis"].coords["nav_measurement"].values) == ["gnss", "isl", "bearing"]
+    used = np.zeros(rec_nis.shape)
+    used[:, 0], used[:, 1] = "gnss" in measurements, "isl-range" in measurements
+    if "camera-bearing" in measurements:
+        used[:, 2] = ds["measured_bearing"].values[:, 1, 3]
+        assert 0.3 < used[:, 2].mean() < 0.9 and used[0, 2] == 0.0 and used[-1, 2] == 0.0, used[:, 2]
+    np.testing.assert_array_equal(ds["nav_updated"].values[:, 1], used)
 
     np.testing.assert_array_less(np.abs(x[:, :3] - est[:, :3]), 1e-9)
     np.testing.assert_array_less(np.abs(x[:, 3:] - est[:, 3:]), 1e-9 * np.abs(x[:, 3:]).max())
     scale = np.sqrt(np.einsum("kii,kjj->kij", p, p))
     np.testing.assert_array_less(np.abs(p - cov), 1e-9 * scale)
-    for m in range(2):
-        if used[m]:
-            np.testing.assert_allclose(rec_nis[:, m], nis[:, m], rtol=1e-9, atol=0.0)
-        else:
-            np.testing.assert_array_equal(rec_nis[:, m], 0.0)
+    for m in range(3):
+        on = used[:, m] > 0.0
+        np.testing.assert_allclose(rec_nis[on, m], nis[on, m], rtol=1e-9, atol=0.0)
+        np.testing.assert_array_equal(rec_nis[~on, m], 0.0)
+
+
+def _refusal(measurements, sensors=None):
+    """The lines of the error leo-pair-navigation with these measurements (and sensors, when
+    given) raises, whether the change is refused when it is made or when it is built."""
+    from coopsat.scenarios.load import ScenarioError
+
+    with pytest.raises((ScenarioError, ValueError)) as err:
+        s = coopsat.Scenario.load("leo-pair-navigation").set("navigation.measurements", measurements)
+        coopsat.validate(s if sensors is None else s.set("sensors", s["sensors"] + sensors))
+    return str(err.value).splitlines()
+
+
+@pytest.mark.parametrize("measurements, camera, message", [
+    (["gnss", "camera-bearing"], {"to": "deputy"},
+     'navigation: the "camera-bearing" sensor looks at deputy, the filter estimates relative to the chief'),
+    (["isl-range", "camera-bearing"], {},
+     'navigation.measurements: "camera-bearing" needs "gnss" too (its own fix gives the LVLH axes of the line of sight)'),
+    (["gnss", "camera-bearing"], {"sigma_rad": 0.0},
+     'navigation: the "camera-bearing" sensor\'s sigma_rad must be > 0 (the filter needs R positive definite)'),
+    (["gnss", "lidar"], {}, "navigation.measurements[1]: Input should be 'gnss', 'isl-range' or 'camera-bearing'"),
+], ids=["not-the-chief", "without-gnss", "no-noise", "unknown"])
+def test_a_bad_bearing_measurement_is_one_line(measurements, camera, message):
+    lines = _refusal(measurements, [{**_CAMERA, **camera}])
+    assert len(lines) == 1 and lines[0].startswith(message), lines
+
+
+def test_a_bearing_without_its_camera_is_refused():
+    lines = _refusal(["gnss", "camera-bearing"])
+    assert lines == ['navigation.measurements: "camera-bearing" needs a [[sensors]] table kind = "camera-bearing"'], lines
 
 
 # --- 2. Monte Carlo consistency ------------------------------------------------------------------

@@ -1,7 +1,9 @@
-"""The GNSS receiver (``kind = "gnss"``) and the inter-satellite range link (``kind = "isl-range"``):
-closed forms without noise, the stated statistics of every noise term (white, own and common
-Gauss–Markov), the common error cancelling between receivers, bit-for-bit replay independent of
-the formation size, and both plug-ins through the real pipeline with one-line errors."""
+"""The GNSS receiver (``kind = "gnss"``), the inter-satellite range link (``kind = "isl-range"``) and
+the camera bearing (``kind = "camera-bearing"``): closed forms without noise, the stated
+statistics of every noise term (white, own and common Gauss–Markov; the camera's rotation across
+the line of sight), the common error cancelling between receivers, the camera's field of view
+and range, bit-for-bit replay independent of the formation size, and the plug-ins through the
+real pipeline with one-line errors."""
 
 import textwrap
 
@@ -15,7 +17,8 @@ from coopsat.astro.kepler import elements_to_rv
 from coopsat.dynamics.plant import PlantState
 from coopsat.plugins import protocols
 from coopsat.scenarios.load import ScenarioError, load_scenario
-from coopsat.sensors.navigation_sensors import Gnss, GnssState, IslRange
+from coopsat.geometry.quaternion import quat_to_dcm
+from coopsat.sensors.navigation_sensors import CameraBearing, Gnss, GnssState, IslRange
 from coopsat.workflows.pipeline import prepare, simulate_built
 
 STEP_S = 5.0
@@ -286,3 +289,180 @@ def test_bad_table_is_one_line_naming_the_field(tmp_path, gnss, isl, expected):
 def test_both_need_an_orbit(tmp_path):
     with pytest.raises(ScenarioError, match=r'^sensors\[0\]: kind = "gnss" measures gnss, which needs an \[orbit\]'):
         prepare(_scenario(tmp_path, to="sc1", base="consensus-sync-a-stable"))
+
+
+# Camera bearing: closed forms, field of view, statistics
+
+
+def _attitudes(n, seed=0):
+    """Random unit quaternions (4, n), scalar first."""
+    q = np.random.default_rng(seed + 100).normal(size=(4, n))
+    return q / np.linalg.norm(q, axis=0)
+
+
+def _with_attitude(x, q):
+    return x._replace(q_bi=q)
+
+
+def _camera(sigma=0.0, boresight=(1.0, 0.0, 0.0), half_fov_deg=180.0, target=0, max_range_m=np.inf):
+    b = np.asarray(boresight, dtype=float)
+    return CameraBearing(jnp.asarray(sigma, dtype=float), jnp.asarray(b / np.linalg.norm(b)),
+                         jnp.asarray(np.cos(np.radians(half_fov_deg))), jnp.int32(target), jnp.asarray(max_range_m))
+
+
+def _body_los(x, target):
+    """NumPy closed form: C(q_bi)ᵀ (r_t − r_i)/|r_t − r_i| per spacecraft (3, n), the DCM of
+    q_bi written out (body to inertial)."""
+    q0, q1, q2, q3 = np.asarray(x.q_bi)
+    c = np.array([
+        [q0**2 + q1**2 - q2**2 - q3**2, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
+        [2 * (q1 * q2 + q0 * q3), q0**2 - q1**2 + q2**2 - q3**2, 2 * (q2 * q3 - q0 * q1)],
+        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0**2 - q1**2 - q2**2 + q3**2],
+    ])  # (3, 3, n): C_ib
+    rho = np.asarray(x.r_eci)[:, [target]] - np.asarray(x.r_eci)
+    with np.errstate(invalid="ignore"):
+        u = rho / np.linalg.norm(rho, axis=0)
+    return np.einsum("jin,jn->in", c, u), np.linalg.norm(rho, axis=0)
+
+
+def test_camera_bearing_is_the_line_of_sight_in_body_axes():
+    """Random positions and attitudes, the whole sky in view: the reading's vector is
+    ``C_ibᵀ ρ̂`` to 1e-12, unit, valid but for the target's own column (all zeros); with
+    ``sigma_rad = 0`` the reading is the truth bit for bit."""
+    n, target = 8, 3
+    x = _with_attitude(_state(n, seed=5), _attitudes(n))
+    sensor = _camera(target=target)
+    truth = np.asarray(sensor.truth({}, x))
+    expected, _ = _body_los(x, target)
+    others = np.arange(n) != target
+    assert truth.dtype == np.float64
+    np.testing.assert_allclose(truth[:3, others], expected[:, others], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(truth[:3, others], axis=0), 1.0, rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(truth[3], others.astype(float))
+    np.testing.assert_array_equal(truth[:, target], 0.0)
+    values, _ = _calls(sensor, x, 2)
+    for value in values:
+        np.testing.assert_array_equal(value, truth)
+
+
+def test_camera_outside_its_field_of_view_or_range_reads_zeros():
+    """The target is valid only within ``fov_half_angle`` of the boresight and ``max_range_m``:
+    the flags are the closed form's, and an invalid column reads zeros, noise or not."""
+    n, target = 40, 0
+    x = _with_attitude(_state(n, seed=6), _attitudes(n, seed=6))
+    boresight = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    los, distance = _body_los(x, target)
+    with np.errstate(invalid="ignore"):
+        angle = np.degrees(np.arccos(np.clip(boresight @ los, -1.0, 1.0)))
+    others = np.arange(n) != target
+    half_fov, limit = np.median(angle[others]), np.median(distance[others])
+    sensor = _camera(sigma=1e-3, boresight=boresight, half_fov_deg=half_fov, target=target, max_range_m=limit)
+    truth = np.asarray(sensor.truth({}, x))
+    value = np.asarray(sensor.measure(truth, x, (), jax.random.key(3))[0])
+    seen = others & (angle <= half_fov) & (distance <= limit)
+    assert 0 < seen.sum() < (others & (angle <= half_fov)).sum() < n - 1
+    for reading in (truth, value):
+        np.testing.assert_array_equal(reading[3], seen.astype(float))
+        np.testing.assert_array_equal(reading[:, ~seen], 0.0)
+        assert not np.any(np.signbit(reading[:, ~seen]))
+    assert np.all(value[:3, seen] != truth[:3, seen])
+
+
+def test_camera_noise_is_a_rotation_across_the_line_of_sight_with_the_stated_sigma():
+    """4000 spacecraft: the reading is unit; its error has no first-order part along the line of
+    sight (``e·u = −|e|²/2`` exactly for two unit vectors); across it, on two orthonormal axes,
+    the errors have standard deviation σ (within 5 standard errors), zero mean, no correlation."""
+    n, sigma = 4000, 2e-3
+    x = _with_attitude(_state(n, seed=7, spread_m=5e4), _attitudes(n, seed=7))
+    values, truth = _calls(_camera(sigma=sigma), x, 1)
+    u, measured = truth[:3, 1:], values[0, :3, 1:]
+    np.testing.assert_allclose(np.linalg.norm(measured, axis=0), 1.0, rtol=0, atol=1e-14)
+    e = measured - u
+    along = np.einsum("kn,kn->n", e, u)
+    np.testing.assert_allclose(along, -0.5 * np.einsum("kn,kn->n", e, e), rtol=0, atol=1e-14)
+    assert np.max(np.abs(along)) < 20.0 * sigma**2
+    # Two axes across each line of sight.
+    a = np.where(np.abs(u[0]) < 0.9, np.array([1.0, 0.0, 0.0])[:, None], np.array([0.0, 1.0, 0.0])[:, None])
+    e1 = np.cross(u, a, axis=0)
+    e1 /= np.linalg.norm(e1, axis=0)
+    e2 = np.cross(u, e1, axis=0)
+    across = np.stack([np.einsum("kn,kn->n", e, e1), np.einsum("kn,kn->n", e, e2)])
+    _assert_sigma(across, np.array([sigma, sigma]), axis=1)
+    assert np.all(np.abs(across.mean(axis=1)) < 5.0 * sigma / np.sqrt(n - 1))
+    assert abs(np.corrcoef(across)[0, 1]) < 5.0 / np.sqrt(n - 1)
+
+
+def test_camera_replays_and_a_spacecraft_draws_the_same_whatever_the_formation_size():
+    sensor = _camera(sigma=1e-3, target=1)
+    x5 = _with_attitude(_state(5), _attitudes(5))
+    x2 = PlantState(*(np.asarray(a)[:, :2] for a in x5))
+    a, _ = _calls(sensor, x5, 3)
+    np.testing.assert_array_equal(a, _calls(sensor, x5, 3)[0])
+    np.testing.assert_array_equal(a[:, :, :2], _calls(sensor, x2, 3)[0])
+    other, _ = _calls(sensor, x5, 3, seed=8)
+    assert not np.any(a[:, :3, [0, 2, 3, 4]] == other[:, :3, [0, 2, 3, 4]])
+
+
+def test_camera_follows_the_sensor_protocol():
+    part = _camera()
+    assert isinstance(part, protocols.Sensor)
+    assert protocols.protocol_problems(part, "sensor") == []
+
+
+CAMERA = """
+    [[sensors]]
+    kind = "camera-bearing"
+    to = "{to}"
+    {camera}
+"""
+
+
+def _camera_scenario(tmp_path, camera="sigma_rad = 1e-4\nfov_half_angle_deg = 180.0", to="chief", base="leo-pair-differential-drag-free"):
+    text = (
+        f'extends = "{base}"\nseed = 2\ndisturbances = []\n\n[sim]\nt_final_s = 30.0\nrecord_interval_s = 5.0\n'
+        + textwrap.dedent(CAMERA.format(camera=camera, to=to))
+    )
+    path = tmp_path / f"c{abs(hash(text))}.toml"
+    path.write_text(text, encoding="utf-8")
+    return load_scenario(path)
+
+
+def test_camera_is_recorded_through_the_pipeline(tmp_path):
+    """The deputy's camera sees the chief (whole sky), within a few σ of the true line of sight
+    in its body axes; the chief's column is zeros; a boresight away from the chief sees nothing."""
+    ds, _ = simulate_built(prepare(_camera_scenario(tmp_path)))
+    bearing = ds.measured_bearing
+    assert bearing.dims == ("time", "spacecraft", "bearing_component")
+    assert list(bearing.bearing_component.values) == ["x", "y", "z", "valid"]
+    assert (bearing.attrs["units"], bearing.attrs["frame"]) == ("1", "body")
+    rho = ds.r_eci.values[:, 0] - ds.r_eci.values[:, 1]
+    truth_b = np.einsum("tji,tj->ti", np.asarray(quat_to_dcm(ds.q.values[:, 1])), rho / np.linalg.norm(rho, axis=-1)[:, None])
+    assert np.max(np.linalg.norm(bearing.values[:, 1, :3] - truth_b, axis=-1)) < 5e-4
+    np.testing.assert_array_equal(bearing.values[:, 1, 3], 1.0)
+    np.testing.assert_array_equal(bearing.values[:, 0], 0.0)
+    # The chief is along-track ahead: a camera looking the other way, 30° wide, sees nothing.
+    away = [float(c) for c in -truth_b[0]]
+    ds, _ = simulate_built(prepare(_camera_scenario(
+        tmp_path, f"sigma_rad = 1e-4\nfov_half_angle_deg = 30.0\nboresight_b = [{away[0]!r}, {away[1]!r}, {away[2]!r}]")))
+    np.testing.assert_array_equal(ds.measured_bearing.values, 0.0)
+
+
+@pytest.mark.parametrize(("camera", "to", "expected"), [
+    ("fov_half_angle_deg = 0.0", "chief", "sensors[0].fov_half_angle_deg: Input should be greater than 0"),
+    ("fov_half_angle_deg = 200.0", "chief", "sensors[0].fov_half_angle_deg: Input should be less than or equal to 180"),
+    ("", "chief", "sensors[0].fov_half_angle_deg: Field required"),
+    ("fov_half_angle_deg = 10.0\nboresight_b = [0.0, 0.0, 2.0]", "chief", "sensors[0].boresight_b: norm is 2; expected a unit vector"),
+    ("fov_half_angle_deg = 10.0\nsigma_rad = -1e-3", "chief", "sensors[0].sigma_rad: Input should be greater than or equal to 0"),
+])
+def test_bad_camera_table_is_one_line_naming_the_field(tmp_path, camera, to, expected):
+    with pytest.raises(ScenarioError) as info:
+        _camera_scenario(tmp_path, camera, to)
+    assert str(info.value).startswith(expected) and "\n" not in str(info.value)
+
+
+def test_bad_camera_design_is_one_line(tmp_path):
+    with pytest.raises(ScenarioError) as info:
+        prepare(_camera_scenario(tmp_path, to="nobody"))
+    assert str(info.value) == "sensors[0].to: unknown spacecraft 'nobody' (known: chief, deputy)"
+    with pytest.raises(ScenarioError, match=r'^sensors\[0\]: kind = "camera-bearing" measures bearing, which needs an \[orbit\]'):
+        prepare(_camera_scenario(tmp_path, to="sc1", base="consensus-sync-a-stable"))

@@ -27,6 +27,11 @@ VARIANTS = {
         "actuators": {"kind": "proportional-thrusters"},
         "sensors": [{"kind": "position-noise", "sigma_m": 1.0}, {"kind": "velocity-noise", "sigma_m_s": 0.01}],
     }),
+    "leo-pair-navigation-bearing": ("leo-pair-navigation", {
+        "sensors": [{"kind": "gnss", "sigma_m": 0.02, "sigma_m_s": 5e-4},
+                    {"kind": "camera-bearing", "to": "chief", "sigma_rad": 1e-4, "fov_half_angle_deg": 12.0}],
+        "navigation.measurements": ["gnss", "camera-bearing"],
+    }),
     "observation-orbit-ekf": ("observation-cooperative", {
         "sensors": coopsat.Scenario.load("observation-cooperative")["sensors"] + [{"kind": "gnss", "sigma_m": 0.5, "sigma_m_s": 0.005}],
         "navigation": {"kind": "orbit-ekf", "accel_psd_m2_s3": 1e-8, "initial_sigma_m": 5.0, "initial_sigma_m_s": 0.05},

@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from coopsat.control.relative_ekf import joseph_update
+from coopsat.control.relative_ekf import drawn_initial, joseph_update
 from coopsat.core.parts import OutputSpec, part
 from coopsat.dynamics.translational import j2_accel, two_body_accel
 
@@ -108,9 +108,7 @@ class OrbitEkf:
     def update_one(self, i, t, y_i, inbox_i, state_i, key_i):
         """Spacecraft i's posterior at t: (state, ``estimate_of`` it, record)."""
         if self.draw_initial:
-            nu = jax.random.normal(jax.random.fold_in(key_i, _DRAW), (6,))
-            first = state_i["clock_s"] == 0.0
-            state_i = {**state_i, "x": jnp.where(first, state_i["x"] + self.sigma0 * nu, state_i["x"])}
+            state_i = drawn_initial(state_i, key_i, self.sigma0, _DRAW)
         frame = jnp.round(t / self.period_s).astype(jnp.int64)
         use = frame % self.gnss_every == 0
         x, p, nis = joseph_update(state_i["x"], state_i["p"], y_i["gnss"] - state_i["x"], jnp.eye(6),

@@ -195,6 +195,15 @@ def bearing_in_lvlh(u_b, q_bi, own_fix):
     return lvlh_dcm(own_fix[:3], own_fix[3:]) @ quat_rotate(q_bi, u_b)
 
 
+def drawn_initial(state_i, key_i, sigma0, tag):
+    """``state_i`` with its estimate ``x`` moved by an initial error ``σ₀ ν`` (ν standard normal
+    from ``fold_in(key_i, tag)``) in the filter's first period (``clock_s == 0``), so that the
+    error a filter starts with is drawn from the covariance it claims."""
+    nu = jax.random.normal(jax.random.fold_in(key_i, tag), sigma0.shape)
+    first = state_i["clock_s"] == 0.0
+    return {**state_i, "x": jnp.where(first, state_i["x"] + sigma0 * nu, state_i["x"])}
+
+
 def _select(use, new, old):
     """``new`` where ``use`` else ``old``, leaf by leaf."""
     return jax.tree_util.tree_map(lambda a, b: jnp.where(use, a, b), new, old)
@@ -297,11 +306,7 @@ class RelativeEkf:
 
     def _initial(self, state_i, key_i):
         """The first period's prior: ``x0`` plus a drawn initial error, when chosen."""
-        if not self.draw_initial:
-            return state_i
-        nu = jax.random.normal(jax.random.fold_in(key_i, _DRAW), (6,))
-        first = state_i["clock_s"] == 0.0
-        return {**state_i, "x": jnp.where(first, state_i["x"] + self.sigma0 * nu, state_i["x"])}
+        return drawn_initial(state_i, key_i, self.sigma0, _DRAW) if self.draw_initial else state_i
 
     def _gnss(self, state_i, t, y_i, inbox_i):
         """The differential-GNSS update from the freshest usable fix of the chief."""

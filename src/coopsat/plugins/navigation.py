@@ -23,7 +23,22 @@ from coopsat.plugins.tables import MAX_TIME_S, Table, whole_ratio
 _SENSOR_QUANTITY = {"gnss": "gnss", "isl-range": "isl", "camera-bearing": "bearing"}
 
 
-class RelativeEkf(Table):
+class FilterTable(Table):
+    """What every navigation filter's table gives: its process noise and where it starts."""
+
+    accel_psd_m2_s3: PerAxis = Field(
+        description="Process noise: spectral density of the white acceleration the model leaves out, per axis of the "
+                    "estimate's frame, m²/s³."
+    )
+    initial_sigma_m: PerAxis = Field(description="Initial standard deviation of the position per axis, m.")
+    initial_sigma_m_s: PerAxis = Field(description="Initial standard deviation of the velocity per axis, m/s.")
+    draw_initial_error: bool = Field(
+        True, description="Start each filter from the scenario's initial state plus an error drawn from the initial "
+                          "covariance (seeded); false: from the initial state itself."
+    )
+
+
+class RelativeEkf(FilterTable):
     """``kind = "relative-ekf"``: each spacecraft estimates its state relative to the chief (EKF)."""
 
     kind: Literal["relative-ekf"]
@@ -33,15 +48,6 @@ class RelativeEkf(Table):
                                   'the network), "isl-range" (range and range-rate to the chief), "camera-bearing" '
                                   '(the line of sight to the chief; needs "gnss").'
     )
-    accel_psd_m2_s3: PerAxis = Field(
-        description="Process noise: spectral density of the white acceleration the model leaves out, per LVLH axis, m²/s³."
-    )
-    initial_sigma_m: PerAxis = Field(description="Initial standard deviation of the relative position per LVLH axis, m.")
-    initial_sigma_m_s: PerAxis = Field(description="Initial standard deviation of the relative velocity per LVLH axis, m/s.")
-    draw_initial_error: bool = Field(
-        True, description="Start each filter from the scenario's initial relative state plus an error drawn from the "
-                          "initial covariance (seeded); false: from the initial state itself."
-    )
     max_age_s: float = Field(
         0.0, ge=0, le=MAX_TIME_S,
         description="Oldest chief's fix processed (at its time stamp), s; older ones are dropped. A whole multiple of "
@@ -49,7 +55,7 @@ class RelativeEkf(Table):
     )
 
 
-def _sensor(ctx, kind):
+def sensor_table(ctx, kind):
     """The ``[[sensors]]`` table of ``kind`` the filter uses (DesignError when there is none)."""
     tables = [t for t in ctx.scenario.sensors if t.kind == kind]
     if not tables:
@@ -57,7 +63,7 @@ def _sensor(ctx, kind):
     return tables[0]
 
 
-def _variances(name, values, where):
+def positive_variances(name, values, where):
     """Per-axis variances from standard deviations; one line naming the field when one is not > 0."""
     sigma = np.broadcast_to(np.asarray(values, dtype=float), (3,))
     if np.any(sigma <= 0.0):
@@ -99,8 +105,19 @@ def _bearing_noise(table, ctx, chief, use):
     return table.sigma_rad**2
 
 
-def _every(table, ctx, kind):
-    period = _sensor(ctx, kind).period_s
+def filter_noise(table):
+    """The process noise's spectral density (3,) and the initial standard deviations (6,) of a
+    filter's table; one line naming the field when a covariance is not positive definite."""
+    q = positive_variances("accel_psd_m2_s3 (Q)", np.sqrt(np.broadcast_to(table.accel_psd_m2_s3, 3)), "navigation.accel_psd_m2_s3")
+    sigma0 = np.sqrt(np.concatenate([
+        positive_variances("initial_sigma_m (P0)", table.initial_sigma_m, "navigation.initial_sigma_m"),
+        positive_variances("initial_sigma_m_s (P0)", table.initial_sigma_m_s, "navigation.initial_sigma_m_s"),
+    ]))
+    return q, sigma0
+
+
+def sensor_every(ctx, kind):
+    period = sensor_table(ctx, kind).period_s
     return 1 if period is None else whole_ratio(period, ctx.period_s)
 
 
@@ -131,28 +148,24 @@ def _build(table, ctx):
     masses = [sc.mass_kg for sc in ctx.scenario.spacecraft]
     if any(m is None for m in masses):
         raise DesignError("navigation: relative-ekf turns commanded forces into accelerations; give every spacecraft mass_kg")
-    q = _variances("accel_psd_m2_s3 (Q)", np.sqrt(np.broadcast_to(table.accel_psd_m2_s3, 3)), "navigation.accel_psd_m2_s3")
-    sigma0 = np.sqrt(np.concatenate([
-        _variances("initial_sigma_m (P0)", table.initial_sigma_m, "navigation.initial_sigma_m"),
-        _variances("initial_sigma_m_s (P0)", table.initial_sigma_m_s, "navigation.initial_sigma_m_s"),
-    ]))
+    q, sigma0 = filter_noise(table)
     max_age = 0 if table.max_age_s == 0.0 else whole_ratio(table.max_age_s, ctx.period_s)
     if max_age is None:
         raise DesignError(
             f"navigation.max_age_s ({table.max_age_s:g} s) must be a whole multiple of the control period ({ctx.period_s:g} s)"
         )
     use = set(table.measurements)
-    r_gnss = _gnss_noise(_sensor(ctx, "gnss")) if "gnss" in use else np.ones(6)
-    r_isl = _isl_noise(_sensor(ctx, "isl-range"), ctx, chief) if "isl-range" in use else np.ones(2)
-    r_bearing = _bearing_noise(_sensor(ctx, "camera-bearing"), ctx, chief, use) if "camera-bearing" in use else 1.0
+    r_gnss = _gnss_noise(sensor_table(ctx, "gnss")) if "gnss" in use else np.ones(6)
+    r_isl = _isl_noise(sensor_table(ctx, "isl-range"), ctx, chief) if "isl-range" in use else np.ones(2)
+    r_bearing = _bearing_noise(sensor_table(ctx, "camera-bearing"), ctx, chief, use) if "camera-bearing" in use else 1.0
     phi_k, gamma, q_k = discretise(chief_mean_motion(ctx, chief), ctx.period_s, q, max_age)
     arrays = (phi_k, q_k, gamma, _initial_relative(ctx, chief), sigma0, r_gnss, r_isl, r_bearing,
               np.asarray(masses, dtype=float), np.int32(chief), ctx.period_s)
     return Part(
         *as_arrays(arrays),
-        gnss_every=_every(table, ctx, "gnss") if "gnss" in use else 0,
-        isl_every=_every(table, ctx, "isl-range") if "isl-range" in use else 0,
-        bearing_every=_every(table, ctx, "camera-bearing") if "camera-bearing" in use else 0,
+        gnss_every=sensor_every(ctx, "gnss") if "gnss" in use else 0,
+        isl_every=sensor_every(ctx, "isl-range") if "isl-range" in use else 0,
+        bearing_every=sensor_every(ctx, "camera-bearing") if "camera-bearing" in use else 0,
         draw_initial=table.draw_initial_error,
     )
 
@@ -168,9 +181,9 @@ def check_steady_state(table, ctx):
 
     chief = ctx.index(table.chief, "navigation.chief")
     q = np.broadcast_to(np.asarray(table.accel_psd_m2_s3, dtype=float), (3,))
-    every = _every(table, ctx, "gnss")
+    every = sensor_every(ctx, "gnss")
     phi_k, _, q_k = discretise(chief_mean_motion(ctx, chief), ctx.period_s * every, q, 0)
-    r = np.diag(_gnss_noise(_sensor(ctx, "gnss")))  # isotropic noise: the same in LVLH axes
+    r = np.diag(_gnss_noise(sensor_table(ctx, "gnss")))  # isotropic noise: the same in LVLH axes
     p = solve_discrete_are(phi_k[1].T, np.eye(6), q_k[1], r)  # a priori covariance
     posterior = p - p @ np.linalg.solve(p + r, p)
     sigma = np.sqrt(np.diag(posterior)[:3])

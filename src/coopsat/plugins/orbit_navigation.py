@@ -11,23 +11,14 @@ import numpy as np
 from pydantic import Field
 
 from coopsat.plugins import DesignError, Plugin, register
-from coopsat.plugins.navigation import _every, _sensor as sensor_table, _variances as positive_variances
-from coopsat.plugins.sensors import PerAxis
-from coopsat.plugins.tables import Table
+from coopsat.plugins.navigation import FilterTable, filter_noise, sensor_every, sensor_table
 
 
-class OrbitEkf(Table):
-    """``kind = "orbit-ekf"``: each spacecraft estimates its own orbit from its GNSS fixes (EKF)."""
+class OrbitEkf(FilterTable):
+    """``kind = "orbit-ekf"``: each spacecraft estimates its own orbit from its GNSS fixes (EKF;
+    the process noise and initial σ per ECI axis)."""
 
     kind: Literal["orbit-ekf"]
-    accel_psd_m2_s3: PerAxis = Field(
-        description="Process noise: spectral density of the white acceleration the model (two-body + J2) leaves out, per ECI axis, m²/s³."
-    )
-    initial_sigma_m: PerAxis = Field(description="Initial standard deviation of the position per ECI axis, m.")
-    initial_sigma_m_s: PerAxis = Field(description="Initial standard deviation of the velocity per ECI axis, m/s.")
-    draw_initial_error: bool = Field(
-        True, description="Start from the scenario's initial state plus an error drawn from the initial covariance (seeded); false: from the state itself."
-    )
     substeps: int = Field(4, ge=1, le=64, description="RK4 steps per control period of the filter's propagation.")
 
 
@@ -51,17 +42,13 @@ def _build(table, ctx):
     if orbit is None:
         raise DesignError("navigation: orbit-ekf estimates orbits; it needs an [orbit] table")
     masses = [sc.mass_kg if sc.mass_kg is not None else 1.0 for sc in ctx.scenario.spacecraft]
-    q = positive_variances("accel_psd_m2_s3 (Q)", np.sqrt(np.broadcast_to(table.accel_psd_m2_s3, 3)), "navigation.accel_psd_m2_s3")
-    sigma0 = np.sqrt(np.concatenate([
-        positive_variances("initial_sigma_m (P0)", table.initial_sigma_m, "navigation.initial_sigma_m"),
-        positive_variances("initial_sigma_m_s (P0)", table.initial_sigma_m_s, "navigation.initial_sigma_m_s"),
-    ]))
+    q, sigma0 = filter_noise(table)
     from coopsat.astro.constants import J2_EARTH, R_EARTH_M
 
     x0 = np.concatenate([ctx.r_eci_m, ctx.v_eci_m_s], axis=1).T
     arrays = (process_noise(q, ctx.period_s), x0, sigma0, _fix_noise(sensor_table(ctx, "gnss")), np.asarray(masses, dtype=float),
               orbit.mu_m3_s2, J2_EARTH, R_EARTH_M, ctx.period_s)
-    return Part(*as_arrays(arrays), substeps=table.substeps, gnss_every=_every(table, ctx, "gnss"),
+    return Part(*as_arrays(arrays), substeps=table.substeps, gnss_every=sensor_every(ctx, "gnss"),
                 draw_initial=table.draw_initial_error)
 
 

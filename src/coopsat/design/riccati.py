@@ -161,21 +161,22 @@ def lqr(A, B, Q, R, *, discrete_dt_s: float | None = None) -> LQRResult:
     return _sampled_lqr(a, b, q, r, dt)
 
 
-def _checked_weights(A, B, Q, R):
-    """(A, B, Q, R) as float matrices of matching shapes, Q and R symmetric, R ≻ 0; else one line."""
+def _checked_weights(A, B, Q, R, who="lqr"):
+    """(A, B, Q, R) as float matrices of matching shapes, Q and R symmetric, R ≻ 0; else one line
+    that begins with ``who``."""
     a, b, q, r = (_matrix(name, v) for name, v in (("A", A), ("B", B), ("Q", Q), ("R", R)))
     n, m = b.shape
     if a.shape != (n, n) or q.shape != (n, n) or r.shape != (m, m):
         raise ValueError(
-            f"lqr: shapes do not match: A {a.shape}, B {b.shape}, Q {q.shape}, R {r.shape} "
+            f"{who}: shapes do not match: A {a.shape}, B {b.shape}, Q {q.shape}, R {r.shape} "
             f"(expected ({n}, {n}), ({n}, {m}), ({n}, {n}), ({m}, {m}))"
         )
     for name, w in (("Q", q), ("R", r)):
         if not np.allclose(w, w.T, rtol=1e-10, atol=0.0):
-            raise ValueError(f"lqr: {name} must be symmetric")
+            raise ValueError(f"{who}: {name} must be symmetric")
     r_min = float(np.linalg.eigvalsh(0.5 * (r + r.T))[0])
     if not r_min > 0.0:
-        raise ValueError(f"lqr: R must be positive definite, its smallest eigenvalue is {r_min:.6g}")
+        raise ValueError(f"{who}: R must be positive definite, its smallest eigenvalue is {r_min:.6g}")
     return a, b, q, r
 
 
@@ -217,3 +218,45 @@ def _sampled_lqr(a, b, q, r, dt):
         raise ValueError(f"lqr: no stabilising solution: a closed-loop pole lies outside the stability region "
                          f"(max |z| = {np.abs(poles).max():.6g})")
     return LQRResult(K=k, P=p, poles=poles, residual=residual, discrete_dt_s=dt)
+
+
+def steady_kalman(phi, h, q, r) -> tuple[np.ndarray, np.ndarray]:
+    """Steady-state covariances of a discrete Kalman filter (the dual of the sampled LQR).
+
+    Parameters
+    ----------
+    phi : array_like, shape (n, n)
+        One step's state transition.
+    h : array_like, shape (m, n)
+        Measurement matrix.
+    q : array_like, shape (n, n)
+        Process noise per step, symmetric ⪰ 0.
+    r : array_like, shape (m, m)
+        Measurement noise, symmetric ≻ 0.
+
+    Returns
+    -------
+    prior, posterior : ndarray (n, n)
+        The covariance before and after a measurement, in the steady state.
+
+    Raises
+    ------
+    ValueError
+        One line, as :func:`lqr`'s (the same checks on the dual problem: Φᵀ, Hᵀ for A, B).
+
+    Notes
+    -----
+    ``P = scipy.linalg.solve_discrete_are(Φᵀ, Hᵀ, Q, R)`` (the filter's Riccati equation
+    ``P = Φ (P − P Hᵀ (H P Hᵀ + R)⁻¹ H P) Φᵀ + Q``); posterior ``P − P Hᵀ (H P Hᵀ + R)⁻¹ H P``.
+    """
+    from scipy.linalg import solve_discrete_are
+
+    a, b, q, r = _checked_weights(np.asarray(phi, dtype=float).T, np.asarray(h, dtype=float).T, q, r, "steady_kalman")
+    try:
+        p = solve_discrete_are(a, b, q, r)
+    except (np.linalg.LinAlgError, ValueError) as err:
+        raise ValueError(f"steady_kalman: the filter's Riccati equation has no stabilising solution (scipy: {_one_line(err)})") from None
+    p = 0.5 * (p + p.T)
+    hp = b.T @ p
+    posterior = p - hp.T @ np.linalg.solve(hp @ b + r, hp)
+    return p, 0.5 * (posterior + posterior.T)

@@ -175,17 +175,15 @@ def check_steady_state(table, ctx):
     model, fixes every period): the position standard deviation it settles to per LVLH axis."""
     if "gnss" not in table.measurements or ctx.scenario.orbit is None:
         return None
-    from scipy.linalg import solve_discrete_are
-
     from coopsat.control.relative_ekf import discretise
+    from coopsat.design.riccati import steady_kalman
 
     chief = ctx.index(table.chief, "navigation.chief")
     q = np.broadcast_to(np.asarray(table.accel_psd_m2_s3, dtype=float), (3,))
     every = sensor_every(ctx, "gnss")
     phi_k, _, q_k = discretise(chief_mean_motion(ctx, chief), ctx.period_s * every, q, 0)
     r = np.diag(_gnss_noise(sensor_table(ctx, "gnss")))  # isotropic noise: the same in LVLH axes
-    p = solve_discrete_are(phi_k[1].T, np.eye(6), q_k[1], r)  # a priori covariance
-    posterior = p - p @ np.linalg.solve(p + r, p)
+    _, posterior = steady_kalman(phi_k[1], np.eye(6), q_k[1], r)
     sigma = np.sqrt(np.diag(posterior)[:3])
     return DesignCheck(
         "relative-ekf", True,

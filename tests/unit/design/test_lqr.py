@@ -185,3 +185,23 @@ def test_bad_problems_raise_one_line_value_errors(args, kwargs, match):
         lqr(*args, **kwargs)
     assert "\n" not in str(info.value)
     assert type(info.value) is ValueError
+
+
+def test_steady_kalman_is_the_fixed_point_of_the_filter_recursion():
+    """The steady covariances equal the Kalman recursion iterated to convergence (prediction,
+    update) on a sampled double integrator measured in position, at the solver's accuracy."""
+    from coopsat.design.riccati import steady_kalman
+
+    phi = np.array([[1.0, 2.0], [0.0, 1.0]])
+    h = np.array([[1.0, 0.0]])
+    q = np.array([[2.0**3 / 3.0, 2.0**2 / 2.0], [2.0**2 / 2.0, 2.0]]) * 1e-3
+    r = np.array([[0.25]])
+    p = np.eye(2)
+    for _ in range(5000):
+        post = p - p @ h.T @ np.linalg.solve(h @ p @ h.T + r, h @ p)
+        p = phi @ post @ phi.T + q
+    prior, posterior = steady_kalman(phi, h, q, r)
+    np.testing.assert_allclose(prior, p, rtol=1e-9)
+    np.testing.assert_allclose(posterior, post, rtol=1e-9)
+    with pytest.raises(ValueError, match="^steady_kalman: R must be positive definite"):
+        steady_kalman(phi, h, q, [[0.0]])

@@ -16,9 +16,13 @@ Orbit rows: N free spacecraft spread along one 500 km orbit, 10 s ticks, under J
 under every perturbation of a real low orbit (EGM2008 to degree and order 20, Harris–Priester
 drag, the Sun and the Moon, radiation pressure with the conical shadow), each quoted as a
 multiple of the J2 row's time per tick (docs/leo.md).
+
+Every row prints the time to build what it runs (the system, or a batch of them stacked; an
+orbit row's scenario built and designed) beside the compile and the run.
 Prints numbers; asserts nothing (timings are not tests).
 """
 
+import time
 
 import numpy as np
 
@@ -48,7 +52,8 @@ def too_big(n, controller, delayed=False):
 
 
 def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=True):
-    """(compile s, best run s, spacecraft-steps/s) for ``ticks`` ticks of ``n`` spacecraft.
+    """(build s, compile s, best run s, spacecraft-steps/s) for ``ticks`` ticks of ``n``
+    spacecraft; build: making the system (and stacking a batch) in Python, before any compile.
 
     With ``batch``, that many independent runs (different random formations) go through one
     ``vmap``-ed loop, as a Monte Carlo campaign does; the rate counts every run's spacecraft.
@@ -59,6 +64,7 @@ def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=T
 
     record_ticks = min(1000, ticks)
     n_records = ticks // record_ticks
+    start = time.perf_counter()
     if batch is None:
         system = bench_system(n, controller, record_ticks=record_ticks, delayed=delayed, native=native)
     else:
@@ -66,10 +72,11 @@ def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=T
             bench_system(n, controller, record_ticks=record_ticks, seed=k, delayed=delayed, native=native)
             for k in range(batch)
         ])
+    build_s = time.perf_counter() - start
     kwargs = {"batched": batch is not None}
     first = simulate(system, n_records, record_ticks * 0.01, **kwargs)
     best = min(simulate(system, n_records, record_ticks * 0.01, **kwargs).run_s for _ in range(repeats))
-    return first.compile_s, best, (batch or 1) * n * n_records * record_ticks / best
+    return build_s, first.compile_s, best, (batch or 1) * n * n_records * record_ticks / best
 
 
 PERTURBATIONS = [
@@ -101,18 +108,21 @@ def orbit_scenario(n, perturbed, ticks, dt_s=10.0):
 
 
 def measure_orbit(n, perturbed, ticks, repeats=3):
-    """(compile s, best run s) for ``ticks`` ticks of :func:`orbit_scenario`."""
+    """(build s, compile s, best run s) for ``ticks`` ticks of :func:`orbit_scenario` (build:
+    the scenario's validation and build, design included)."""
     import warnings
 
     from coopsat.scenarios.build import DesignWarning, build
     from coopsat.sim.engine import simulate
 
+    start = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DesignWarning)  # the free orbits' design checks say nothing here
         built = build(orbit_scenario(n, perturbed, ticks).model)
+    build_s = time.perf_counter() - start
     first = simulate(built.system, built.n_records, built.record_interval_s)
     best = min(simulate(built.system, built.n_records, built.record_interval_s).run_s for _ in range(repeats))
-    return first.compile_s, best
+    return build_s, first.compile_s, best
 
 
 def load_ceiling():
@@ -155,7 +165,7 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
           f"{'native kernels where they apply' if native else 'XLA only (--no-native)'}")
     if ceiling is None:
         print(f"(no ceiling column: {why})")
-    print(f"{'case':<14}{'N':>8}{'batch':>7}{'ticks':>10}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}"
+    print(f"{'case':<14}{'N':>8}{'batch':>7}{'ticks':>10}{'build s':>9}{'compile s':>11}{'run s':>9}{'M sc-steps/s':>14}"
           f"{'ceiling 1T':>12}{'2T':>8}{'of ceiling':>11}")
     cores = len(jax.devices()) if jax.devices()[0].platform == "cpu" else 1
 
@@ -166,8 +176,8 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
         if skip:
             print(f"{label:<14}{n:>8}{1:>7}{ticks:>10}   {skip}", flush=True)
             return
-        compile_s, run_s, rate = measure(n, controller, ticks, batch=b, delayed=delayed, native=native)
-        line = f"{label:<14}{n:>8}{b or 1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}"
+        build_s, compile_s, run_s, rate = measure(n, controller, ticks, batch=b, delayed=delayed, native=native)
+        line = f"{label:<14}{n:>8}{b or 1:>7}{ticks:>10}{build_s:>9.2f}{compile_s:>11.2f}{run_s:>9.3f}{rate / 1e6:>14.2f}"
         if ceiling is not None and controller != "none" and not delayed and total > 1:
             one = ceiling.ceiling_rate(total, ticks, threads=1)[1]
             two = ceiling.ceiling_rate(total, ticks, threads=2)[1]
@@ -193,9 +203,10 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
         ticks = steps or 200
         times = {}
         for perturbed, label in ((False, "orbit J2"), (True, "orbit all")):
-            compile_s, run_s = measure_orbit(n, perturbed, ticks)
+            build_s, compile_s, run_s = measure_orbit(n, perturbed, ticks)
             times[perturbed] = run_s
-            line = f"{label:<14}{n:>8}{1:>7}{ticks:>10}{compile_s:>11.2f}{run_s:>9.3f}{n * ticks / run_s / 1e6:>14.2f}"
+            line = (f"{label:<14}{n:>8}{1:>7}{ticks:>10}{build_s:>9.2f}{compile_s:>11.2f}{run_s:>9.3f}"
+                    f"{n * ticks / run_s / 1e6:>14.2f}")
             if perturbed:
                 line += f"   {run_s / times[False]:.1f}× the J2 tick"
             print(line, flush=True)

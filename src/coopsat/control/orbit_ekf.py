@@ -14,7 +14,8 @@ at its start:
    commands only torques), the covariance by the Jacobian of that same discrete map
    (``jax.jacfwd``: the propagator's exact state-transition matrix) and the process noise of a
    white acceleration of spectral density ``q`` per ECI axis,
-   ``Q = q [[T³/3 I, T²/2 I], [T²/2 I, T I]]``.
+   ``Q = q [[T³/3 I, T²/2 I], [T²/2 I, T I]]`` (the double integrator's, made at design time by
+   :func:`coopsat.design.riccati.sampled_noise`).
 
 Notes
 -----
@@ -26,20 +27,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from coopsat.control.relative_ekf import drawn_initial, joseph_update
+from coopsat.control.relative_ekf import drawn_initial, joseph_update, sensor_due
 from coopsat.core.parts import OutputSpec, part
 from coopsat.dynamics.translational import j2_accel, two_body_accel
 
 _STATE = ("x", "y", "z", "vx", "vy", "vz")
 _DRAW = 19  # tag of the initial-error draw in the filter's key
-
-
-def process_noise(q_m2_s3, period_s):
-    """Discrete process noise (6, 6) of a white acceleration of spectral density ``q`` (3,),
-    m²/s³, per ECI axis over ``period_s`` (a double integrator per axis), NumPy."""
-    q = np.diag(np.asarray(q_m2_s3, dtype=float))
-    t = float(period_s)
-    return np.block([[q * t**3 / 3.0, q * t**2 / 2.0], [q * t**2 / 2.0, q * t]])
 
 
 @part(static=("substeps", "gnss_every", "draw_initial"))
@@ -109,8 +102,7 @@ class OrbitEkf:
         """Spacecraft i's posterior at t: (state, ``estimate_of`` it, record)."""
         if self.draw_initial:
             state_i = drawn_initial(state_i, key_i, self.sigma0, _DRAW)
-        frame = jnp.round(t / self.period_s).astype(jnp.int64)
-        use = frame % self.gnss_every == 0
+        use = sensor_due(t, self.period_s, self.gnss_every)
         x, p, nis = joseph_update(state_i["x"], state_i["p"], y_i["gnss"] - state_i["x"], jnp.eye(6),
                                   jnp.diag(self.r_gnss_eci))
         state_i = {**state_i, "x": jnp.where(use, x, state_i["x"]), "p": jnp.where(use, p, state_i["p"])}

@@ -45,7 +45,7 @@ Notes
 -----
 Φ, Γ and Q are the exact zero-order-hold discretisation of the CW equations (SPEC §2 eq. 1)
 with continuous white acceleration noise of spectral density ``q`` (Van Loan), computed at
-design time (:func:`discretise`).
+design time (:func:`coopsat.plugins.navigation.relative_model`).
 """
 
 import jax
@@ -60,50 +60,6 @@ from coopsat.geometry.quaternion import quat_rotate
 _STATE = ("x", "y", "z", "vx", "vy", "vz")
 _DRAW = 17  # tag of the initial-error draw in the filter's key
 _MEASUREMENTS = ("gnss", "isl", "bearing")  # the recorded nav_measurement coordinate
-
-
-def discretise(n_rad_s, period_s, q_m2_s3, max_periods):
-    """The filter's model over 0..``max_periods`` control periods (design time, NumPy).
-
-    Parameters
-    ----------
-    n_rad_s : float
-        The chief's mean motion, rad/s.
-    period_s : float
-        Control period T, s.
-    q_m2_s3 : (3,)
-        Spectral density of the white acceleration noise per LVLH axis, m²/s³.
-    max_periods : int
-        The oldest fix processed, in periods (≥ 0).
-
-    Returns
-    -------
-    phi_k : (max_periods + 2, 6, 6)
-        Φ(jT) for j = 0..max_periods + 1 (``phi_k[1]`` is the one-period transition).
-    gamma : (6, 3)
-        ZOH input matrix over one period, s and s² (input: acceleration, m/s²).
-    q_k : (max_periods + 2, 6, 6)
-        Process noise accumulated over j periods, ``Q_j = Σ_{m<j} Φ^m Q Φ^mᵀ``.
-    """
-    from scipy.linalg import expm
-
-    from coopsat.dynamics.cw import cw_matrices
-
-    a, b = (np.asarray(m) for m in cw_matrices(n_rad_s))
-    qc = np.zeros((6, 6))
-    qc[3:, 3:] = np.diag(np.asarray(q_m2_s3, dtype=float))
-    # Van Loan: expm([[−A, Qc], [0, Aᵀ]] T) = [[·, Φ⁻¹Q], [0, Φᵀ]].
-    van_loan = expm(np.block([[-a, qc], [np.zeros((6, 6)), a.T]]) * period_s)
-    phi = van_loan[6:, 6:].T
-    q = phi @ van_loan[:6, 6:]
-    q = 0.5 * (q + q.T)
-    zoh = expm(np.block([[a, b], [np.zeros((3, 9))]]) * period_s)
-    gamma = zoh[:6, 6:]
-    phi_k, q_k = [np.eye(6)], [np.zeros((6, 6))]
-    for _ in range(max_periods + 1):
-        q_k.append(phi @ q_k[-1] @ phi.T + q)
-        phi_k.append(phi @ phi_k[-1])
-    return np.stack(phi_k), gamma, np.stack(q_k)
 
 
 def joseph_update(x, p, residual, h, r):
@@ -202,6 +158,12 @@ def bearing_in_lvlh(u_b, q_bi, own_fix):
     return lvlh_dcm(own_fix[:3], own_fix[3:]) @ quat_rotate(q_bi, u_b)
 
 
+def sensor_due(t_s, period_s, every):
+    """Whether a sensor updating every ``every`` control periods of ``period_s`` read at
+    ``t_s`` (it holds its reading in between, and a held reading is not a new measurement)."""
+    return jnp.round(t_s / period_s).astype(jnp.int64) % every == 0
+
+
 def drawn_initial(state_i, key_i, sigma0, tag):
     """``state_i`` with its estimate ``x`` moved by an initial error ``σ₀ ν`` (ν standard normal
     from ``fold_in(key_i, tag)``) in the filter's first period (``clock_s == 0``), so that the
@@ -223,7 +185,8 @@ class RelativeEkf:
     Attributes
     ----------
     phi_k, q_k : (J + 2, 6, 6)
-        Transition and accumulated process noise over j periods (:func:`discretise`).
+        Transition and accumulated process noise over j periods
+        (:func:`coopsat.plugins.navigation.relative_model`).
     gamma : (6, 3)
         One period's ZOH input matrix.
     x0_lvlh : (6, n)
@@ -305,10 +268,9 @@ class RelativeEkf:
         ``c`` (6,) of this instant."""
         if not self.gnss_every:
             return {}
-        frame = jnp.round(state_i["clock_s"] / self.period_s).astype(jnp.int64)
         return {
             "nav_fix": y_i["gnss"], "nav_fix_s": state_i["clock_s"], "nav_c": state_i["c"],
-            "nav_fresh": (frame % self.gnss_every == 0).astype(float), "nav_from": jnp.asarray(i, dtype=float),
+            "nav_fresh": sensor_due(state_i["clock_s"], self.period_s, self.gnss_every).astype(float), "nav_from": jnp.asarray(i, dtype=float),
         }
 
     def _initial(self, state_i, key_i):
@@ -336,18 +298,16 @@ class RelativeEkf:
 
     def _isl(self, state_i, t, y_i):
         """The range and range-rate update, when the sensor read this period and saw the chief."""
-        frame = jnp.round(t / self.period_s).astype(jnp.int64)
         z = y_i["isl"]
-        use = (frame % self.isl_every == 0) & (z[2] > 0.0)
+        use = sensor_due(t, self.period_s, self.isl_every) & (z[2] > 0.0)
         predicted, h = range_model(state_i["x"])
         x, p, nis = joseph_update(state_i["x"], state_i["p"], z[:2] - predicted, h, jnp.diag(self.r_isl))
         return _select(use, {**state_i, "x": x, "p": p}, state_i), jnp.where(use, nis, 0.0), use
 
     def _bearing(self, state_i, t, y_i):
         """The camera-bearing update, when the camera read this period and saw the chief."""
-        frame = jnp.round(t / self.period_s).astype(jnp.int64)
         z = y_i["bearing"]
-        use = (frame % self.bearing_every == 0) & (z[3] > 0.0)
+        use = sensor_due(t, self.period_s, self.bearing_every) & (z[3] > 0.0)
         basis, h = bearing_model(state_i["x"])
         residual = basis @ bearing_in_lvlh(z[:3], y_i["q"], y_i["gnss"])  # predicted: [0, 0]
         x, p, nis = joseph_update(state_i["x"], state_i["p"], residual, h, self.r_bearing * jnp.eye(2))
@@ -385,8 +345,6 @@ class RelativeEkf:
     def true_state(self, r_eci, v_eci):
         """The truth of what the filter estimates, from recorded ECI states (T, n, 3): each
         spacecraft's state relative to the chief, its LVLH frame, (T, n, 6) NumPy."""
-        import numpy as np
-
         c = slice(int(self.chief), int(self.chief) + 1)
         rho, rho_dot = eci_to_lvlh(r_eci[:, c], v_eci[:, c], r_eci, v_eci)
         return np.concatenate([np.asarray(rho), np.asarray(rho_dot)], axis=-1)

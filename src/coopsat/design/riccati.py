@@ -105,6 +105,41 @@ def discretize(a, b, period_s: float) -> tuple[np.ndarray, np.ndarray]:
     return e[:n, :n], e[:n, n:]
 
 
+
+def sampled_noise(a, qc, period_s: float) -> np.ndarray:
+    """Process noise over one sample of a system driven by continuous white noise.
+
+    Parameters
+    ----------
+    a : array_like, shape (n, n)
+        State matrix, 1/s.
+    qc : array_like, shape (n, n)
+        Spectral density of the white noise driving ``ẋ`` (symmetric ⪰ 0), units of x² per s.
+    period_s : float
+        Sample period T, s (finite, > 0).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        ``Q = ∫_0^T e^{As} Qc e^{Aᵀs} ds``, symmetrised.
+
+    Notes
+    -----
+    Van Loan (1978): ``expm([[−A, Qc], [0, Aᵀ]] T) = [[·, Φ⁻¹Q], [0, Φᵀ]]``, so ``Q = Φ (Φ⁻¹Q)``;
+    the noise's counterpart of :func:`discretize`.
+    """
+    from scipy.linalg import expm
+
+    a, qc = _matrix("a", a), _matrix("qc", qc)
+    n = a.shape[0]
+    if a.shape != (n, n) or qc.shape != (n, n):
+        raise ValueError(f"shapes do not match: a {a.shape}, qc {qc.shape}")
+    if not (math.isfinite(period_s) and period_s > 0.0):
+        raise ValueError(f"period_s must be finite and > 0, got {period_s}")
+    e = expm(np.block([[-a, qc], [np.zeros((n, n)), a.T]]) * period_s)
+    q = e[n:, n:].T @ e[:n, n:]
+    return 0.5 * (q + q.T)
+
 def _relative(lhs: np.ndarray, terms: tuple[np.ndarray, ...]) -> float:
     scale = sum(float(np.linalg.norm(t)) for t in terms)
     return float(np.linalg.norm(lhs)) / scale if scale > 0.0 else float(np.linalg.norm(lhs))

@@ -8,19 +8,15 @@ no pyplot).
 import numpy as np
 from matplotlib.figure import Figure
 
-from coopsat.analysis.papers.navigation import chi2_band, effective_count, series
+from coopsat.analysis.papers.navigation import chi2_band, effective_count, series_of
 
 _AXES = {"LVLH": ("along-track x", "cross-track y", "radial z (nadir)"), "ECI": ("x", "y", "z")}
-
-
-def _series(ds, built):
-    return {k: ds[k] for k in ("nav_error", "nav_sigma", "nees")} if "nees" in ds else series(ds, built)
 
 
 def estimate_error_figure(ds, built, velocity=False):
     """Estimate minus truth per axis (position, or velocity) of each spacecraft the filter
     judges, with ±3σ."""
-    have = _series(ds, built)
+    have = series_of(ds, built)
     t_s = ds["time"].values
     off, unit, what = (3, "m/s", "velocity") if velocity else (0, "m", "position")
     judged = built.system.controller.navigation.estimated(ds.sizes["spacecraft"])
@@ -46,7 +42,7 @@ def estimate_error_figure(ds, built, velocity=False):
 def nees_figure(ds, built):
     """NEES of each deputy against time, its mean over the deputies, and the 95 % χ² band of
     one sample's value and of the run's mean."""
-    have = _series(ds, built)
+    have = series_of(ds, built)
     t_s = ds["time"].values
     values = have["nees"].values
     deputies = [i for i in range(values.shape[1]) if not np.all(np.isnan(values[:, i]))]

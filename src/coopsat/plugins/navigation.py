@@ -63,12 +63,13 @@ def sensor_table(ctx, kind):
     return tables[0]
 
 
-def positive_variances(name, values, where):
-    """Per-axis variances from standard deviations; one line naming the field when one is not > 0."""
-    sigma = np.broadcast_to(np.asarray(values, dtype=float), (3,))
-    if np.any(sigma <= 0.0):
-        raise DesignError(f"{where}: the filter needs {name} positive definite; every axis must be > 0, got {sigma.tolist()}")
-    return sigma**2
+def _positive(name, values, where):
+    """A per-axis value as (3,), every axis > 0; else one line naming the field (a covariance
+    built from it would not be positive definite)."""
+    v = np.broadcast_to(np.asarray(values, dtype=float), (3,))
+    if np.any(v <= 0.0):
+        raise DesignError(f"{where}: the filter needs {name} positive definite; every axis must be > 0, got {v.tolist()}")
+    return v
 
 
 def _gnss_noise(table):
@@ -108,11 +109,11 @@ def _bearing_noise(table, ctx, chief, use):
 def filter_noise(table):
     """The process noise's spectral density (3,) and the initial standard deviations (6,) of a
     filter's table; one line naming the field when a covariance is not positive definite."""
-    q = positive_variances("accel_psd_m2_s3 (Q)", np.sqrt(np.broadcast_to(table.accel_psd_m2_s3, 3)), "navigation.accel_psd_m2_s3")
-    sigma0 = np.sqrt(np.concatenate([
-        positive_variances("initial_sigma_m (P0)", table.initial_sigma_m, "navigation.initial_sigma_m"),
-        positive_variances("initial_sigma_m_s (P0)", table.initial_sigma_m_s, "navigation.initial_sigma_m_s"),
-    ]))
+    q = _positive("accel_psd_m2_s3 (Q)", table.accel_psd_m2_s3, "navigation.accel_psd_m2_s3")
+    sigma0 = np.concatenate([
+        _positive("initial_sigma_m (P0)", table.initial_sigma_m, "navigation.initial_sigma_m"),
+        _positive("initial_sigma_m_s (P0)", table.initial_sigma_m_s, "navigation.initial_sigma_m_s"),
+    ])
     return q, sigma0
 
 
@@ -122,11 +123,57 @@ def sensor_every(ctx, kind):
 
 
 def chief_mean_motion(ctx, chief):
-    """The chief's mean motion from its initial state (vis-viva), rad/s."""
-    r, v = np.linalg.norm(ctx.r_eci_m[chief]), np.linalg.norm(ctx.v_eci_m_s[chief])
+    """The chief's mean motion from its initial state, rad/s (its osculating semi-major axis)."""
+    from coopsat.astro.kepler import rv_to_elements
+
     mu = ctx.scenario.orbit.mu_m3_s2
-    a = 1.0 / (2.0 / r - v * v / mu)
-    return float(np.sqrt(mu / a**3))
+    try:
+        a_m = rv_to_elements(ctx.r_eci_m[chief], ctx.v_eci_m_s[chief], mu)[0]
+    except ValueError as err:
+        raise DesignError(f"navigation.chief: {err}") from None
+    return float(np.sqrt(mu / a_m**3))
+
+
+def relative_model(n_rad_s, period_s, q_m2_s3, max_periods):
+    """The relative filter's model over 0..``max_periods + 1`` control periods.
+
+    Parameters
+    ----------
+    n_rad_s : float
+        The chief's mean motion, rad/s.
+    period_s : float
+        Control period T, s.
+    q_m2_s3 : (3,)
+        Spectral density of the white acceleration noise per LVLH axis, m²/s³.
+    max_periods : int
+        The oldest fix processed, in periods (≥ 0).
+
+    Returns
+    -------
+    phi_k : (max_periods + 2, 6, 6)
+        Φ(jT) for j = 0..max_periods + 1 (``phi_k[1]`` is the one-period transition).
+    gamma : (6, 3)
+        ZOH input matrix over one period, s and s² (input: acceleration, m/s²).
+    q_k : (max_periods + 2, 6, 6)
+        Process noise accumulated over j periods, ``Q_j = Σ_{m<j} Φ^m Q Φ^mᵀ``.
+
+    Notes
+    -----
+    The Clohessy–Wiltshire equations (SPEC §2 eq. 1, :func:`coopsat.dynamics.cw.cw_matrices`)
+    held over each period (:func:`coopsat.design.riccati.discretize`) under white acceleration
+    noise (:func:`coopsat.design.riccati.sampled_noise`).
+    """
+    from coopsat.design.riccati import discretize, sampled_noise
+    from coopsat.dynamics.cw import cw_matrices
+
+    a, b = (np.asarray(m) for m in cw_matrices(n_rad_s))
+    phi, gamma = discretize(a, b, period_s)
+    q = sampled_noise(a, b @ np.diag(q_m2_s3) @ b.T, period_s)
+    phi_k, q_k = [np.eye(6)], [np.zeros((6, 6))]
+    for _ in range(max_periods + 1):
+        q_k.append(phi @ q_k[-1] @ phi.T + q)
+        phi_k.append(phi @ phi_k[-1])
+    return np.stack(phi_k), gamma, np.stack(q_k)
 
 
 def _initial_relative(ctx, chief):
@@ -139,7 +186,6 @@ def _initial_relative(ctx, chief):
 
 def _build(table, ctx):
     from coopsat.control.relative_ekf import RelativeEkf as Part
-    from coopsat.control.relative_ekf import discretise
     from coopsat.sim.system import as_arrays
 
     if ctx.scenario.orbit is None:
@@ -158,7 +204,7 @@ def _build(table, ctx):
     r_gnss = _gnss_noise(sensor_table(ctx, "gnss")) if "gnss" in use else np.ones(6)
     r_isl = _isl_noise(sensor_table(ctx, "isl-range"), ctx, chief) if "isl-range" in use else np.ones(2)
     r_bearing = _bearing_noise(sensor_table(ctx, "camera-bearing"), ctx, chief, use) if "camera-bearing" in use else 1.0
-    phi_k, gamma, q_k = discretise(chief_mean_motion(ctx, chief), ctx.period_s, q, max_age)
+    phi_k, gamma, q_k = relative_model(chief_mean_motion(ctx, chief), ctx.period_s, q, max_age)
     arrays = (phi_k, q_k, gamma, _initial_relative(ctx, chief), sigma0, r_gnss, r_isl, r_bearing,
               np.asarray(masses, dtype=float), np.int32(chief), ctx.period_s)
     return Part(
@@ -175,13 +221,12 @@ def check_steady_state(table, ctx):
     model, fixes every period): the position standard deviation it settles to per LVLH axis."""
     if "gnss" not in table.measurements or ctx.scenario.orbit is None:
         return None
-    from coopsat.control.relative_ekf import discretise
     from coopsat.design.riccati import steady_kalman
 
     chief = ctx.index(table.chief, "navigation.chief")
     q = np.broadcast_to(np.asarray(table.accel_psd_m2_s3, dtype=float), (3,))
     every = sensor_every(ctx, "gnss")
-    phi_k, _, q_k = discretise(chief_mean_motion(ctx, chief), ctx.period_s * every, q, 0)
+    phi_k, _, q_k = relative_model(chief_mean_motion(ctx, chief), ctx.period_s * every, q, 0)
     r = np.diag(_gnss_noise(sensor_table(ctx, "gnss")))  # isotropic noise: the same in LVLH axes
     _, posterior = steady_kalman(phi_k[1], np.eye(6), q_k[1], r)
     sigma = np.sqrt(np.diag(posterior)[:3])

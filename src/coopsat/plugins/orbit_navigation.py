@@ -22,6 +22,11 @@ class OrbitEkf(FilterTable):
     substeps: int = Field(4, ge=1, le=64, description="RK4 steps per control period of the filter's propagation.")
 
 
+_DOUBLE_INTEGRATOR = np.block([[np.zeros((3, 3)), np.eye(3)], [np.zeros((3, 3)), np.zeros((3, 3))]])
+"""``d/dt [r, v] = [v, a]``: the filter's process noise drives the velocity of a double integrator
+per ECI axis (the orbit's own dynamics are left out of Q, as usual over a short period)."""
+
+
 def _fix_noise(table):
     """Variance of one receiver's whole error per ECI axis (6,): white, own and common."""
     def var(*names):
@@ -35,7 +40,7 @@ def _fix_noise(table):
 
 def _build(table, ctx):
     from coopsat.control.orbit_ekf import OrbitEkf as Part
-    from coopsat.control.orbit_ekf import process_noise
+    from coopsat.design.riccati import sampled_noise
     from coopsat.sim.system import as_arrays
 
     orbit = ctx.scenario.orbit
@@ -46,7 +51,7 @@ def _build(table, ctx):
     from coopsat.astro.constants import J2_EARTH, R_EARTH_M
 
     x0 = np.concatenate([ctx.r_eci_m, ctx.v_eci_m_s], axis=1).T
-    arrays = (process_noise(q, ctx.period_s), x0, sigma0, _fix_noise(sensor_table(ctx, "gnss")), np.asarray(masses, dtype=float),
+    arrays = (sampled_noise(_DOUBLE_INTEGRATOR, np.diag(np.concatenate([np.zeros(3), q])), ctx.period_s), x0, sigma0, _fix_noise(sensor_table(ctx, "gnss")), np.asarray(masses, dtype=float),
               orbit.mu_m3_s2, J2_EARTH, R_EARTH_M, ctx.period_s)
     return Part(*as_arrays(arrays), substeps=table.substeps, gnss_every=sensor_every(ctx, "gnss"),
                 draw_initial=table.draw_initial_error)

@@ -179,12 +179,18 @@ def _run_check(check, table, ctx, place):
     return [results] if isinstance(results, DesignCheck) else list(results)
 
 
-def _check_sensed_quantities(scenario, sensors, actuators):
-    """Every sensor's truth comes from quantities the run's models have (``needs``)."""
+def state_quantities_of(scenario, actuators):
+    """The quantities of a run's moving state (``q`` or ``angle``, ``omega``, and ``h_wheels``,
+    ``r_eci``, ``v_eci`` where they move), as a set."""
     from coopsat.dynamics.plant import state_quantities
 
     gravity = "none" if scenario.orbit is None else scenario.orbit.gravity
-    have = set(state_quantities(scenario.sim.attitude, gravity, (a.channel for a in actuators)))
+    return set(state_quantities(scenario.sim.attitude, gravity, (a.channel for a in actuators)))
+
+
+def _check_sensed_quantities(scenario, sensors, actuators):
+    """Every sensor's truth comes from quantities the run's models have (``needs``)."""
+    have = state_quantities_of(scenario, actuators)
     for k, s in enumerate(sensors):
         if not set(s.needs) <= have:
             raise ScenarioError(

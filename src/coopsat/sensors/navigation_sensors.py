@@ -1,7 +1,7 @@
 """Navigation sensors of an orbit: a GNSS receiver, an inter-satellite range / range-rate link and
 a camera's bearing to another spacecraft.
 
-Both read a derived quantity (sensor protocol as in :mod:`coopsat.sensors.parts`), its truth
+Each reads a derived quantity (sensor protocol as in :mod:`coopsat.sensors.parts`), its truth
 computed from the plant state, component-major ``(k, n)``, spacecraft last:
 
 * ``"gnss"`` (6, n): each spacecraft's own absolute fix, ECI (GCRF): rows ``x, y, z`` (m) and
@@ -164,6 +164,15 @@ class Gnss:
         }
 
 
+def _to_target(r_eci, target):
+    """Every spacecraft's vector to one target (3, n), m, its length (n,), m, and which column
+    is the target itself (n,). The target's own vector is zero: its length is taken as 1 there,
+    so that neither a division by it nor its gradient is NaN."""
+    rho = r_eci[:, target][:, None] - r_eci
+    is_target = jnp.arange(r_eci.shape[-1]) == target
+    return rho, jnp.sqrt(jnp.where(is_target, 1.0, jnp.sum(rho**2, axis=0))), is_target
+
+
 def range_and_rate(r_eci, v_eci, target):
     """Every spacecraft's range and range-rate to one target spacecraft.
 
@@ -181,12 +190,8 @@ def range_and_rate(r_eci, v_eci, target):
     range_rate_m_s : (n,)
         ``d|ρ|/dt = ρ · (v_target − v_i) / |ρ|``, m/s; 0 for the target itself.
     """
-    rho = r_eci[:, target][:, None] - r_eci
+    rho, distance, is_target = _to_target(r_eci, target)
     rho_dot = v_eci[:, target][:, None] - v_eci
-    is_target = jnp.arange(r_eci.shape[-1]) == target
-    # The target's own ρ is zero: take the norm of 1 there, so neither the value nor its
-    # gradient is NaN.
-    distance = jnp.sqrt(jnp.where(is_target, 1.0, jnp.sum(rho**2, axis=0)))
     rate = jnp.sum(rho * rho_dot, axis=0) / distance
     return jnp.where(is_target, 0.0, distance), jnp.where(is_target, 0.0, rate)
 
@@ -270,10 +275,7 @@ def line_of_sight(r_eci, q_bi, target):
     distance_m : (n,)
         ``|r_target − r_i|``, m; 0 for the target itself.
     """
-    rho = r_eci[:, target][:, None] - r_eci
-    is_target = jnp.arange(r_eci.shape[-1]) == target
-    # The target's own ρ is zero: divide by 1 there, so nothing is NaN.
-    distance = jnp.sqrt(jnp.where(is_target, 1.0, jnp.sum(rho**2, axis=0)))
+    rho, distance, is_target = _to_target(r_eci, target)
     los_b = quat_rotate_inverse(q_bi, rho / distance, 0)
     return jnp.where(is_target, 0.0, los_b), jnp.where(is_target, 0.0, distance)
 

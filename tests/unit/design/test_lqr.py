@@ -205,3 +205,13 @@ def test_steady_kalman_is_the_fixed_point_of_the_filter_recursion():
     np.testing.assert_allclose(posterior, post, rtol=1e-9)
     with pytest.raises(ValueError, match="^steady_kalman: R must be positive definite"):
         steady_kalman(phi, h, q, [[0.0]])
+
+
+def test_sampled_noise_of_a_double_integrator_is_its_closed_form():
+    """White acceleration of density q on a double integrator: Q = q [[T³/3, T²/2], [T²/2, T]]
+    (to the matrix exponential's accuracy)."""
+    from coopsat.design.riccati import sampled_noise
+
+    t, q = 5.0, 2e-9
+    closed = q * np.array([[t**3 / 3.0, t**2 / 2.0], [t**2 / 2.0, t]])
+    np.testing.assert_allclose(sampled_noise(DI[0], [[0.0, 0.0], [0.0, q]], t), closed, rtol=1e-10)

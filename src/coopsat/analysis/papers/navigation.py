@@ -111,9 +111,15 @@ def series(ds, built):
     }
 
 
+def series_of(ds, built):
+    """``nav_error``, ``nav_sigma`` and ``nees`` as the record holds them, or as :func:`series`
+    computes them for a record that does not."""
+    return {k: ds[k] for k in ("nav_error", "nav_sigma", "nees")} if "nees" in ds else series(ds, built)
+
+
 def metrics(ds, built):
     _, deputies, _ = _judged(built)
-    have = series(ds, built) if "nees" not in ds else {k: ds[k] for k in ("nav_error", "nav_sigma", "nees")}
+    have = series_of(ds, built)
     values = have["nees"].values[1:, deputies]
     err = have["nav_error"].values[:, deputies]
     m = {"nees_mean": float(values.mean())}

@@ -55,12 +55,9 @@ def per_spacecraft_form(controller, kind, measured=None):
 
 def _measured(built):
     """The quantities a run's flight software may read: its moving state's and its sensors'."""
-    from coopsat.dynamics.plant import state_quantities
+    from coopsat.scenarios.build import state_quantities_of
 
-    scenario = built.scenario
-    gravity = "none" if scenario.orbit is None else scenario.orbit.gravity
-    state = state_quantities(scenario.sim.attitude, gravity, (a.channel for a in built.system.actuators))
-    return set(state) | {s.quantity for s in built.system.sensors}
+    return state_quantities_of(built.scenario, built.system.actuators) | {s.quantity for s in built.system.sensors}
 
 
 def parse_fault(text, kind):

@@ -283,12 +283,19 @@ class Batch:
         Wall time compiling and running every vmapped batch, s.
     n_batches : int
         Compiled structures (runs that share laws, sizes and rates run as one batch).
+    build_s : float
+        Wall time building the runs, s.
+    build_note : str
+        How they were built, one line: once, the fields in which they differ applied as arrays
+        (the seed, the initial attitude, rates and wheel momenta), or each on its own and why.
     """
 
     results: list
     compile_s: float
     run_s: float
     n_batches: int
+    build_s: float = 0.0
+    build_note: str = ""
 
 
 def run_batch(scenarios: Sequence[ScenarioLike], *, progress: bool = False, native: bool | None = None) -> Batch:
@@ -298,16 +305,23 @@ def run_batch(scenarios: Sequence[ScenarioLike], *, progress: bool = False, nati
     last bits: a batch groups its floating-point sums differently). Published numbers are not
     compared (``comparison`` is empty). ``native``: as :func:`run`.
     """
-    from coopsat.workflows.sweep import group_runs, simulate_runs
+    import time
 
+    from coopsat.scenarios.applied import changed_paths
+    from coopsat.workflows.sweep import build_runs, group_runs, simulate_runs
+
+    t0 = time.perf_counter()
     docs = [_document(s) for s in scenarios]
-    builds = [prepare(d.model, check_published=False) for d in docs]
-    datasets, compile_s, run_s = simulate_runs(builds, progress, native=native)
+    raws = [d.to_dict() for d in docs]
+    paths = list(dict.fromkeys(p for raw in raws[1:] for p in changed_paths(raws[0], raw)))
+    builds, stacked, note = build_runs([d.model for d in docs], paths)
+    build_s = time.perf_counter() - t0
+    datasets, compile_s, run_s = simulate_runs(builds, progress, native=native, stacked=stacked)
     results = []
     for doc, built, ds in zip(docs, builds, datasets):
         metrics, _ = analyse(built, ds, compare=False)
         results.append(Result.from_built(doc, built, ds, metrics))
-    return Batch(results, compile_s, run_s, len(group_runs(builds)))
+    return Batch(results, compile_s, run_s, 1 if stacked is not None else len(group_runs(builds)), build_s, note)
 
 
 def sweep(scenario: ScenarioLike, vary: Mapping[str, Sequence[Any]], *, seeds: int = 1, metrics: Sequence[str] | None = None,

@@ -260,6 +260,8 @@ def _cmd_campaign_run(args):
     out = run_campaign(args.file, args.out, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
     print(f"{args.file}: {out['runs']} runs in {out['batches']} batches ({out['skipped_batches']} already on disk); "
           f"{out['failed']} failed in this call; {out['wall_s']:.1f} s; results in {args.out}/batches")
+    for note in out["build_notes"]:
+        print(f"batches: {note}")
     return 0
 
 

@@ -121,7 +121,9 @@ def stack_systems(systems):
     structures = {jax.tree_util.tree_structure(s) for s in systems}
     if len(structures) != 1:
         raise ValueError("stack_systems: systems differ in structure (laws, rates or size); they cannot share a batch")
-    return jax.tree_util.tree_map(lambda *leaves: jnp.stack([jnp.asarray(v) for v in leaves]), *systems)
+    # Stacked on the host and moved once per leaf: ``jnp.stack`` of device arrays dispatched one
+    # conversion per run and leaf (15 s for 1000 runs of N = 5); the same values either way.
+    return jax.tree_util.tree_map(lambda *leaves: jax.device_put(np.stack([np.asarray(v) for v in leaves])), *systems)
 
 
 def as_arrays(tree):

@@ -184,6 +184,33 @@ def group_runs(builds):
     return list(groups.values())
 
 
+def build_runs(models, paths):
+    """Build validated scenarios that differ from ``models[0]`` only at ``paths`` (model paths):
+    once, the others' values applied as arrays (:func:`coopsat.scenarios.applied.applied_runs`),
+    when every path is applied as data; else each on its own.
+
+    Returns
+    -------
+    (builds, stacked, note)
+        ``stacked``: the runs' systems as one batch (None when each was built on its own, and
+        :func:`simulate_runs` stacks them); ``note``: one line saying how they were built.
+    """
+    from coopsat.scenarios.applied import NotApplicable, applicable, applied_runs
+
+    def build_one(m):
+        return prepare(m, check_published=False)
+
+    why = applicable(paths)
+    if why is None and models:
+        try:
+            runs = applied_runs(build_one(models[0]), models, paths, build_one)
+            shown = ", ".join(paths[:3]) + (f" and {len(paths) - 3} more" if len(paths) > 3 else "")
+            return runs.builds, runs.system, (f"{len(models)} runs built once, {shown or 'nothing'} applied as arrays")
+        except NotApplicable as err:
+            why = str(err)
+    return [build_one(m) for m in models], None, why or "each run built on its own"
+
+
 def prepare_runs(ref, override_lists):
     """Load, validate and build the scenario once per override list (nothing runs).
 
@@ -193,7 +220,7 @@ def prepare_runs(ref, override_lists):
     return [prepare(load_scenario(ref, overrides), check_published=False) for overrides in override_lists]
 
 
-def simulate_runs(builds, progress=False, every_core=True, bucket=None, native=None):
+def simulate_runs(builds, progress=False, every_core=True, bucket=None, native=None, stacked=None):
     """Simulate built runs, one vmapped batch per group of :func:`group_runs`.
 
     ``every_core``: share each batch among the CPU devices (:func:`coopsat.sim.engine.simulate`);
@@ -201,6 +228,8 @@ def simulate_runs(builds, progress=False, every_core=True, bucket=None, native=N
     ``bucket``: the largest batch expected; each group is padded to a recurring size below it
     (:func:`coopsat.sim.engine.bucket_runs`), so that the groups of many batches share
     compiled programs (campaigns). ``native``: as :func:`coopsat.sim.engine.simulate`.
+    ``stacked``: the runs' systems already batched, all of one group
+    (:func:`coopsat.scenarios.applied.applied_runs`); by default they are grouped and stacked here.
 
     Returns
     -------
@@ -208,25 +237,27 @@ def simulate_runs(builds, progress=False, every_core=True, bucket=None, native=N
         One dataset per build, in order (attributes ``scenario_name`` and ``seed``), and the
         wall time compiling and running all batches, s.
     """
-    from coopsat.sim.engine import RunOutput, output_specs, simulate
-    from coopsat.sim.recorder import to_dataset
+    from coopsat.sim.engine import output_specs, simulate
+    from coopsat.sim.recorder import to_datasets
     from coopsat.sim.system import stack_systems
 
+    if stacked is None:
+        batches = [(group, stack_systems([builds[k].system for k in group])) for group in group_runs(builds)]
+    else:
+        batches = [(list(range(len(builds))), stacked)]
     datasets, compile_s, run_s = [None] * len(builds), 0.0, 0.0
-    for group in group_runs(builds):
+    for group, system in batches:
         first = builds[group[0]]
         out = simulate(
-            stack_systems([builds[k].system for k in group]), first.n_records, first.record_interval_s,
+            system, first.n_records, first.record_interval_s,
             batched=True, progress=progress, names=first.names, every_core=every_core, bucket=bucket, cancel=interrupt.check,
             native=native,
         )
         compile_s += out.compile_s
         run_s += out.run_s
-        specs = output_specs(first.system)
-        for i, k in enumerate(group):
-            one = RunOutput(out.t_s, {name: v[i] for name, v in out.samples.items()}, 0.0, 0.0)
-            sc = builds[k].scenario
-            datasets[k] = paper_series(to_dataset(one, builds[k].names, {"scenario_name": sc.name, "seed": sc.seed}, specs), builds[k])
+        attrs = [{"scenario_name": builds[k].scenario.name, "seed": builds[k].scenario.seed} for k in group]
+        for k, ds in zip(group, to_datasets(out, first.names, attrs, output_specs(first.system))):
+            datasets[k] = paper_series(ds, builds[k])
         interrupt.check()
     return datasets, compile_s, run_s
 

@@ -113,11 +113,13 @@ def _native_off_reason(native):
     return verdict.reason
 
 
-def batch_provenance(builds, run_ids, native=None):
+def batch_provenance(builds, run_ids, native=None, build=""):
     """What decides the bits of a batch, in the process that runs it (a Dask worker): the
     versions, the platform and CPU family, JAX's devices, ``XLA_FLAGS``, the native kernels'
     choice (:func:`native_choice`, made now, before the batch is simulated), and the batch's
-    runs in order (a run's position in its batch is its index in ``run_ids``).
+    runs in order (a run's position in its batch is its index in ``run_ids``); with ``build``,
+    how its runs were built (one line, :func:`coopsat.workflows.sweep.build_runs`: the same
+    bits either way, so it is not compared).
 
     Raises
     ------
@@ -143,6 +145,7 @@ def batch_provenance(builds, run_ids, native=None):
         "xla_flags": os.environ.get("XLA_FLAGS", ""),
         "batch_size": len(run_ids),
         "run_ids": list(run_ids),
+        "build": build,
     }
 
 

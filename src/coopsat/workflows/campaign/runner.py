@@ -109,38 +109,58 @@ def run_batch(job, run_ids, native=None):
     """
     import tempfile
 
-    from coopsat.workflows.pipeline import analyse, prepare
+    from coopsat.scenarios.applied import applicable
     from coopsat.scenarios.load import ScenarioError, load_scenario
     from coopsat.sim.engine import NonFiniteStateError
-    from coopsat.workflows.sweep import simulate_runs
+    from coopsat.workflows.pipeline import analyse, prepare
+    from coopsat.workflows.sweep import build_runs, simulate_runs
 
     campaign = Campaign.model_validate(job["campaign"])
     seqs = run_seed_sequences(campaign.master_seed, campaign.runs)
     bases = base_values(job)
-    rows, builds, where = {}, [], []
+    paths = [*(p for paths in job["fields"] for p in paths), "seed"]
+    rows, models, where = {}, [], []
     with tempfile.TemporaryDirectory() as tmp:
         scenario = Path(tmp) / "scenario.toml"
         scenario.write_text(job["scenario_toml"])
+        # The runs' scenarios: the dispersed values set on one validated scenario where every
+        # dispersed field is applied as data (each checked as its field), else each run's
+        # scenario loaded whole with its overrides.
+        base = load_scenario(scenario) if applicable(paths) is None else None
         for k in run_ids:
             applied, seed, overrides = run_overrides(job, k, seqs, bases)
             row = {"run_id": k, "status": "ok", "reason": "", "seed": seed, "params": json.dumps(applied)}
             try:
-                builds.append(prepare(load_scenario(scenario, overrides), check_published=False))
+                models.append(_with_values(base, {**applied, "seed": seed}) if base is not None
+                              else load_scenario(scenario, overrides))
                 where.append(k)
             except ScenarioError as err:
                 row.update(status="failed", reason=f"invalid scenario: {err}")
             rows[k] = row
+    try:
+        builds, stacked, note = build_runs(models, paths)
+    except ScenarioError:
+        # A run that the build refuses (an impossible body, a graph that cannot agree) fails alone.
+        builds, stacked, note, kept = [], None, "each run built on its own", []
+        for k, m in zip(where, models):
+            try:
+                builds.append(prepare(m, check_published=False))
+                kept.append(k)
+            except ScenarioError as err:
+                rows[k].update(status="failed", reason=f"invalid scenario: {err}")
+        where = kept
 
     series = {}
     # Taken here, on the worker that runs the batch, before it runs: it decides the native
     # kernels' path for the whole batch (the probe, if any, runs now).
-    provenance = batch_provenance(builds, run_ids, native)
+    provenance = batch_provenance(builds, run_ids, native, note)
 
     def finish(ids, blds):
         # One device whatever the machine, so that a run's stored result (and its replay) does
         # not depend on how many cores the worker had; groups padded to recurring sizes, so
         # that a worker compiles each structure a few times, not once per batch.
-        datasets, _, _ = simulate_runs(blds, every_core=False, bucket=campaign.batch_size, native=native)
+        datasets, _, _ = simulate_runs(blds, every_core=False, bucket=campaign.batch_size, native=native,
+                                       stacked=stacked if len(blds) == len(builds) else None)
         for k, b, ds in zip(ids, blds, datasets):
             metrics, _ = analyse(b, ds, compare=False)
             rows[k].update({name: _scalar(v) for name, v in metrics.items()})
@@ -169,6 +189,16 @@ def run_batch(job, run_ids, native=None):
         labels = [c for c in kept.coords if kept[c].dtype.kind == "U"]
         kept = kept.drop_vars(labels).assign_attrs({f"{c}_labels": [str(v) for v in kept[c].values] for c in labels})
     return [rows[k] for k in run_ids], kept, provenance
+
+
+def _with_values(model, values):
+    """``model`` with each ``{path: value}`` set as its field
+    (:func:`coopsat.scenarios.applied.with_value`)."""
+    from coopsat.scenarios.applied import with_value
+
+    for path, value in values.items():
+        model = with_value(model, path, value)
+    return model
 
 
 def _scalar(v):
@@ -335,7 +365,8 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     dict
         ``runs``, ``batches``, ``skipped_batches`` (already on disk), ``failed`` (runs),
         ``wall_s``, ``worker_peak_rss_mb`` (the largest worker's peak memory; None when
-        nothing ran).
+        nothing ran), ``build_notes`` (how the batches of this call built their runs, each
+        distinct line once: :func:`coopsat.workflows.sweep.build_runs`).
     """
     campaign_path = bundled_campaign(campaign_path)
     campaign, ref, _ = load_campaign(campaign_path)
@@ -345,7 +376,7 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     batches = batch_ids(campaign.runs, campaign.batch_size)
     todo = [b for b in range(len(batches)) if not batch_file(out_dir, b).is_file()]
     t0 = time.perf_counter()
-    failed, peak_mb = 0, None
+    failed, peak_mb, notes = 0, None, {}
     if todo:
         from dask.distributed import as_completed
 
@@ -366,6 +397,7 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
                 # a campaign larger than memory streams to disk instead of piling up.
                 b = futures.pop(future)
                 rows, series, provenance = future.result()
+                notes[_build_kind(provenance["build"])] = None
                 with interrupt.holding():  # a finished batch is written whole, even after a signal
                     write_batch(out_dir, b, rows, series, provenance)
                     on_disk += 1
@@ -383,7 +415,12 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
             if written:
                 _record_call(out_dir, time.perf_counter() - t0, written)
     return {"runs": campaign.runs, "batches": len(batches), "skipped_batches": len(batches) - len(todo), "failed": failed,
-            "wall_s": time.perf_counter() - t0, "worker_peak_rss_mb": peak_mb}
+            "wall_s": time.perf_counter() - t0, "worker_peak_rss_mb": peak_mb, "build_notes": list(notes)}
+
+
+def _build_kind(note):
+    """A batch's build note without its run count, so that batches built alike say it once."""
+    return re.sub(r"^\d+ runs built once", "runs built once", note)
 
 
 def _record_call(out_dir, wall_s, batches):

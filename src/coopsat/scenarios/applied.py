@@ -11,7 +11,7 @@ A field belongs in :data:`APPLIED_FIELDS` only when it reaches the build through
 the system and nothing else: no plug-in's builder or design check, no structure, no
 validator that reads other fields. That is true of the fields registered here by what
 :func:`coopsat.scenarios.build.build` does with them; it is also checked on every batch
-(:func:`applied_runs` builds its second run the usual way and compares every leaf and check
+(:func:`applied_runs` builds, for each applied field, one run that differs in it the usual way and compares every leaf and check
 bit for bit), so that a plug-in that starts reading one of them at build time sends its batches
 back to per-run builds (one line says which leaf differed) instead of changing their results.
 Any other dispersed field (an inertia, a gain, a delay) enters a design step or the structure:
@@ -164,7 +164,7 @@ def with_value(model, path, value):
         try:
             return node.model_copy(update={head: _adapter(type(node), head).validate_python(value)})
         except ValidationError as err:
-            raise ScenarioError(f"{_place(path)}: {err.errors()[0]['msg']}") from None
+            raise ScenarioError(f"{_place(path)}: {err.errors()[0]['msg'].removeprefix('Value error, ')}") from None
 
     return put(model, path.split("."))
 
@@ -202,6 +202,20 @@ def _first_difference(built, reference):
     return None
 
 
+def _checked_runs(values):
+    """The runs built the usual way to check an applied batch: in order, each run that differs
+    from the first in a field that no earlier checked run differed in (at most one per field;
+    a campaign's runs differ in every dispersed field, so one). ``values``: path -> (B, ...)."""
+    covered, out = set(), []
+    n = len(next(iter(values.values()))) if values else 0
+    for k in range(1, n):
+        differ = {p for p, v in values.items() if not np.array_equal(v[k], v[0])}
+        if differ - covered:
+            out.append(k)
+            covered |= differ
+    return out
+
+
 class NotApplicable(Exception):
     """A batch whose applied build differs from the usual one (:func:`applied_runs`); its message
     says where. Callers build those runs one by one."""
@@ -220,8 +234,8 @@ def applied_runs(base, models, paths, build_one):
     paths : sequence of str
         Model paths, each in :data:`APPLIED_FIELDS` (:func:`applicable`).
     build_one : callable
-        The usual build (:func:`coopsat.workflows.pipeline.prepare`), used once on
-        ``models[1]`` to check the applied build against it.
+        The usual build (:func:`coopsat.workflows.pipeline.prepare`), used on the runs of
+        :func:`_checked_runs` to check the applied build against it.
 
     Returns
     -------
@@ -237,17 +251,18 @@ def applied_runs(base, models, paths, build_one):
     n = len(models)
     one = jax.tree_util.tree_map(np.asarray, base.system)
     batched = jax.tree_util.tree_map(lambda leaf: np.broadcast_to(leaf, (n, *np.shape(leaf))), one)
+    values = {path: np.stack([np.asarray(model_value(m, path)) for m in models]) for path in paths}
     for path in paths:
         field, groups = _field_of(path)
-        batched = field.apply(batched, groups, np.stack([np.asarray(model_value(m, path)) for m in models]))
+        batched = field.apply(batched, groups, values[path])
     leaves, treedef = jax.tree_util.tree_flatten(batched)
     builds = [
         dataclasses.replace(base, scenario=m, system=jax.tree_util.tree_unflatten(treedef, [leaf[k] for leaf in leaves]),
                             context=dataclasses.replace(base.context, scenario=m))
         for k, m in enumerate(models)
     ]
-    if n > 1:
-        why = _first_difference(builds[1], build_one(models[1]))
+    for k in _checked_runs(values):
+        why = _first_difference(builds[k], build_one(models[k]))
         if why is not None:
             raise NotApplicable(f"built once, {why} differs from the run's own build, so each run is built on its own")
     system = jax.tree_util.tree_unflatten(treedef, [jax.device_put(np.ascontiguousarray(leaf)) for leaf in leaves])

@@ -317,3 +317,21 @@ def test_the_key_changes_with_a_version(monkeypatch):
     real = capability.metadata.version
     monkeypatch.setattr(capability.metadata, "version", lambda name: "9.9" if name == "numba" else real(name))
     assert capability.install_key() != key
+
+
+def test_on_a_gpu_the_kernels_are_off_in_one_line(monkeypatch):
+    """JAX's default device a GPU: the CPU kernels do not apply, said once, the loop in XLA."""
+    import jax
+
+    assert capability.device_problem("cpu") is None
+    assert capability.device_problem() is None  # this machine: JAX on the CPU
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    capability.reset()
+    try:
+        with pytest.warns(capability.NativeFallbackWarning, match=r"native CPU kernels off: JAX runs on the gpu here, "
+                                                                   r"so the whole loop runs there in XLA"):
+            assert capability.use_native(None, 10**9) is False
+        with pytest.raises(capability.NativeUnavailableError, match="JAX runs on the gpu"):
+            capability.use_native(True)
+    finally:
+        capability.reset()

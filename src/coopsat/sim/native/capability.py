@@ -7,7 +7,7 @@ trusted only where that reading was tested. At the first run that could use them
 1. the switch: ``native=`` of :func:`coopsat.run` / :func:`coopsat.sim.engine.simulate`, else
    the environment variable :data:`ENV` (``0``, ``1`` or ``auto``, the default);
 2. the platform and architecture (:data:`PLATFORMS`: 64-bit Linux; elsewhere they were never
-   run);
+   run), and JAX's default device the CPU (on a GPU the whole loop runs there, in XLA);
 3. jax and jaxlib lie in :data:`TESTED_JAX`, the range the test suite runs on (CI's newest
    and lowest-versions jobs), and numba, llvmlite and ``jax.ffi`` import;
 4. a probe: a small synthetic formation (:mod:`coopsat.sim.synthetic`) that goes through each
@@ -53,9 +53,10 @@ PLATFORMS = {("linux", "x86_64"), ("linux", "aarch64")}
 
 TESTED_JAX = ((0, 9, 1), (0, 11, 0))
 """jax and jaxlib versions the kernels are tested on, the first included, the second excluded
-(pyproject.toml's bounds; CI's lowest-versions job runs the first). jaxlib 0.9.1 is the first
-whose XLA FFI is API version 0.3, the handlers' (earlier ones refuse them at registration); the
-next minor may change the FFI: raise the bound once tested."""
+(CI's lowest-versions job runs the first). jaxlib 0.9.1 is the first whose XLA FFI is API
+version 0.3, the handlers' (earlier ones refuse them at registration); the next minor may change
+the FFI: raise the bound once tested. pyproject.toml admits newer jax (0.11, 0.12), on which the
+whole loop runs in XLA (the auto choice falls back with one notice)."""
 
 PROBE_RTOL = 1e-12
 """Largest difference between the probe's runs, relative to each output's scale. The plant
@@ -109,6 +110,18 @@ def platform_problem(system=None, machine=None):
     machine = {"amd64": "x86_64", "arm64": "aarch64"}.get(machine, machine)
     if (system, machine) not in PLATFORMS:
         return f"the native kernels are built and tested on 64-bit Linux only, not on {system} {machine}"
+    return None
+
+
+def device_problem(backend=None):
+    """Why the CPU kernels do not apply to JAX's default device (None when it is the CPU): on a
+    GPU the whole loop runs there, in XLA. ``backend``: ``jax.default_backend()`` unless given."""
+    if backend is None:
+        import jax
+
+        backend = jax.default_backend()
+    if backend != "cpu":
+        return f"JAX runs on the {backend} here, so the whole loop runs there in XLA"
     return None
 
 
@@ -219,7 +232,7 @@ def _checked(worth_probing=True):
     nothing decided, when only the probe could tell and the run is not ``worth_probing``."""
     with _lock:
         if not _verdict:
-            reason = platform_problem() or version_problem()
+            reason = platform_problem() or device_problem() or version_problem()
             path = verdict_path() if reason is None else None
             kept = _load_verdict(path) if path is not None else None
             if kept is None and reason is None:

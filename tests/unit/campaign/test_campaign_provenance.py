@@ -39,7 +39,7 @@ sigma = 0.05
 mode = "absolute"
 """
 
-FIELDS = {"build", "coopsat", "jax", "jaxlib", "numpy", "scipy", "machine", "os", "cpu", "device_kind", "device_count", "native",
+FIELDS = {"build", "seconds", "coopsat", "jax", "jaxlib", "numpy", "scipy", "machine", "os", "cpu", "device_kind", "device_count", "native",
           "native_reason", "xla_flags", "batch_size", "run_ids"}
 
 

@@ -119,7 +119,8 @@ def batch_provenance(builds, run_ids, native=None, build=""):
     choice (:func:`native_choice`, made now, before the batch is simulated), and the batch's
     runs in order (a run's position in its batch is its index in ``run_ids``); with ``build``,
     how its runs were built (one line, :func:`coopsat.workflows.sweep.build_runs`: the same
-    bits either way, so it is not compared).
+    bits either way, so it is not compared). The runner adds ``seconds``, where the batch's time
+    went (not compared either).
 
     Raises
     ------

@@ -115,6 +115,7 @@ def run_batch(job, run_ids, native=None):
     from coopsat.workflows.pipeline import analyse, prepare
     from coopsat.workflows.sweep import build_runs, simulate_runs
 
+    t0 = time.perf_counter()
     campaign = Campaign.model_validate(job["campaign"])
     seqs = run_seed_sequences(campaign.master_seed, campaign.runs)
     bases = base_values(job)
@@ -154,13 +155,16 @@ def run_batch(job, run_ids, native=None):
     # Taken here, on the worker that runs the batch, before it runs: it decides the native
     # kernels' path for the whole batch (the probe, if any, runs now).
     provenance = batch_provenance(builds, run_ids, native, note)
+    seconds = {"compile": 0.0, "simulate": 0.0}
 
     def finish(ids, blds):
         # One device whatever the machine, so that a run's stored result (and its replay) does
         # not depend on how many cores the worker had; groups padded to recurring sizes, so
         # that a worker compiles each structure a few times, not once per batch.
-        datasets, _, _ = simulate_runs(blds, every_core=False, bucket=campaign.batch_size, native=native,
-                                       stacked=stacked if len(blds) == len(builds) else None)
+        datasets, compile_s, run_s = simulate_runs(blds, every_core=False, bucket=campaign.batch_size, native=native,
+                                                   stacked=stacked if len(blds) == len(builds) else None)
+        seconds["compile"] += compile_s
+        seconds["simulate"] += run_s
         for k, b, ds in zip(ids, blds, datasets):
             metrics, _ = analyse(b, ds, compare=False)
             rows[k].update({name: _scalar(v) for name, v in metrics.items()})
@@ -188,6 +192,8 @@ def run_batch(job, run_ids, native=None):
         # specified fixed-width string type.
         labels = [c for c in kept.coords if kept[c].dtype.kind == "U"]
         kept = kept.drop_vars(labels).assign_attrs({f"{c}_labels": [str(v) for v in kept[c].values] for c in labels})
+    # Not what decides the bits, but where the batch's time went (benchmarks/campaign_throughput.py).
+    provenance["seconds"] = {**seconds, "total": time.perf_counter() - t0}
     return [rows[k] for k in run_ids], kept, provenance
 
 
@@ -366,7 +372,9 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
         ``runs``, ``batches``, ``skipped_batches`` (already on disk), ``failed`` (runs),
         ``wall_s``, ``worker_peak_rss_mb`` (the largest worker's peak memory; None when
         nothing ran), ``build_notes`` (how the batches of this call built their runs, each
-        distinct line once: :func:`coopsat.workflows.sweep.build_runs`).
+        distinct line once: :func:`coopsat.workflows.sweep.build_runs`), ``worker_s`` (the
+        workers' seconds summed over the batches of this call: ``compile``, ``simulate``, and
+        ``total`` of the batch tasks).
     """
     campaign_path = bundled_campaign(campaign_path)
     campaign, ref, _ = load_campaign(campaign_path)
@@ -376,7 +384,7 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
     batches = batch_ids(campaign.runs, campaign.batch_size)
     todo = [b for b in range(len(batches)) if not batch_file(out_dir, b).is_file()]
     t0 = time.perf_counter()
-    failed, peak_mb, notes = 0, None, {}
+    failed, peak_mb, notes, worker_s = 0, None, {}, {}
     if todo:
         from dask.distributed import as_completed
 
@@ -398,6 +406,8 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
                 b = futures.pop(future)
                 rows, series, provenance = future.result()
                 notes[_build_kind(provenance["build"])] = None
+                for name, value in provenance["seconds"].items():
+                    worker_s[name] = worker_s.get(name, 0.0) + value
                 with interrupt.holding():  # a finished batch is written whole, even after a signal
                     write_batch(out_dir, b, rows, series, provenance)
                     on_disk += 1
@@ -415,7 +425,8 @@ def run_campaign(campaign_path, out_dir, workers=None, scheduler=None, progress=
             if written:
                 _record_call(out_dir, time.perf_counter() - t0, written)
     return {"runs": campaign.runs, "batches": len(batches), "skipped_batches": len(batches) - len(todo), "failed": failed,
-            "wall_s": time.perf_counter() - t0, "worker_peak_rss_mb": peak_mb, "build_notes": list(notes)}
+            "wall_s": time.perf_counter() - t0, "worker_peak_rss_mb": peak_mb, "build_notes": list(notes),
+            "worker_s": worker_s}
 
 
 def _build_kind(note):

@@ -11,9 +11,10 @@ A field belongs in :data:`APPLIED_FIELDS` only when it reaches the build through
 the system and nothing else: no plug-in's builder or design check, no structure, no
 validator that reads other fields. That is true of the fields registered here by what
 :func:`coopsat.scenarios.build.build` does with them; it is also checked on every batch
-(:func:`applied_runs` builds, for each applied field, one run that differs in it the usual way and compares every leaf and check
-bit for bit), so that a plug-in that starts reading one of them at build time sends its batches
-back to per-run builds (one line says which leaf differed) instead of changing their results.
+(:func:`applied_runs` builds, for each applied field, one run that differs in it the usual way
+and compares every leaf and check bit for bit), so that a plug-in that starts reading one of
+them at build time sends its batches back to per-run builds (one line says which leaf
+differed) instead of changing their results.
 Any other dispersed field (an inertia, a gain, a delay) enters a design step or the structure:
 its runs are built one by one (:func:`applicable` says why, in one line).
 """

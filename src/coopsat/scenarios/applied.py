@@ -27,6 +27,7 @@ from typing import Annotated, Callable, NamedTuple
 
 import numpy as np
 
+from coopsat.core.errors import CoopsatError
 from coopsat.scenarios.load import ScenarioError
 
 
@@ -217,9 +218,9 @@ def _checked_runs(values):
     return out
 
 
-class NotApplicable(Exception):
+class NotApplicable(CoopsatError):
     """A batch whose applied build differs from the usual one (:func:`applied_runs`); its message
-    says where. Callers build those runs one by one."""
+    says where. Callers catch it and build those runs one by one: it never reaches a user."""
 
 
 def applied_runs(base, models, paths, build_one):

@@ -17,7 +17,8 @@ under every perturbation of a real low orbit (EGM2008 to degree and order 20, Ha
 drag, the Sun and the Moon, radiation pressure with the conical shadow), each quoted as a
 multiple of the J2 row's time per tick (docs/leo.md).
 
-Every row prints the time to build what it runs (the system, or a batch of them stacked; an
+Every row prints the time to build what it runs (the system, or a batch: one system with each
+run's random draws stacked, :func:`~coopsat.sim.synthetic.bench_batch`; an
 orbit row's scenario built and designed) beside the compile and the run.
 Prints numbers; asserts nothing (timings are not tests).
 """
@@ -59,8 +60,7 @@ def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=T
     ``vmap``-ed loop, as a Monte Carlo campaign does; the rate counts every run's spacecraft.
     """
     from coopsat.sim.engine import simulate
-    from coopsat.sim.synthetic import bench_system
-    from coopsat.sim.system import stack_systems
+    from coopsat.sim.synthetic import bench_batch, bench_system
 
     record_ticks = min(1000, ticks)
     n_records = ticks // record_ticks
@@ -68,10 +68,7 @@ def measure(n, controller, ticks, batch=None, repeats=3, delayed=False, native=T
     if batch is None:
         system = bench_system(n, controller, record_ticks=record_ticks, delayed=delayed, native=native)
     else:
-        system = stack_systems([
-            bench_system(n, controller, record_ticks=record_ticks, seed=k, delayed=delayed, native=native)
-            for k in range(batch)
-        ])
+        system = bench_batch(n, controller, batch, record_ticks=record_ticks, delayed=delayed, native=native)
     build_s = time.perf_counter() - start
     kwargs = {"batched": batch is not None}
     first = simulate(system, n_records, record_ticks * 0.01, **kwargs)

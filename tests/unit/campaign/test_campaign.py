@@ -364,7 +364,8 @@ def test_no_bundled_campaign_draws_an_invalid_scenario(tmp_path):
     """Every drawn run of every bundled campaign (a sample of 25 each) is a scenario the
     builder accepts: none ships runs that fail by construction (a delay that is not a whole
     number of control periods, a body that breaks the triangle inequality)."""
-    from coopsat.workflows.campaign.runner import make_job, run_overrides
+    from coopsat.workflows.campaign.batch import run_overrides
+    from coopsat.workflows.campaign.runner import make_job
     from coopsat.workflows.pipeline import prepare
 
     for name in bundled_campaign_names():

@@ -5,7 +5,6 @@ dispersed value out of its field's bounds fails that run alone, and the batch sa
 import json
 
 import numpy as np
-import pytest
 
 from coopsat.scenarios import applied
 from coopsat.workflows.campaign.runner import make_job, run_batch

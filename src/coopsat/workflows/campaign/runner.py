@@ -29,16 +29,13 @@ import numpy as np
 
 from coopsat.core.progress import progress_bar
 from coopsat.workflows import interrupt
+from coopsat.workflows.campaign.batch import batch_builds, batch_models, batch_series
 from coopsat.workflows.campaign.provenance import batch_provenance, compare, read_provenance, summary_line, to_metadata
 from coopsat.workflows.campaign.spec import (
     Campaign,
     CampaignError,
-    base_values,
     bundled_campaign,
-    draw_run,
     load_campaign,
-    overrides_for,
-    run_seed_sequences,
 )
 
 MARKER = "campaign.json"
@@ -76,18 +73,6 @@ def make_job(campaign_path):
             "fields": fields}
 
 
-def run_overrides(job, run_id, seqs=None, bases=None):
-    """The applied values, seed and ``--set`` strings (on the job's scenario) of one run.
-
-    ``seqs`` (:func:`run_seed_sequences`) and ``bases`` (:func:`base_values`) may be given by a
-    caller that draws many runs, so that each is computed once (parsing the scenario for
-    ``bases`` took 3 ms a run)."""
-    campaign = Campaign.model_validate(job["campaign"])
-    seq = (seqs or run_seed_sequences(campaign.master_seed, campaign.runs))[run_id]
-    applied, seed = draw_run(campaign, job["fields"], base_values(job) if bases is None else bases, seq)
-    return applied, seed, overrides_for(applied, seed)
-
-
 def run_batch_rows(campaign_path, run_ids):
     """One row (dict) per run of a batch of a campaign file (:func:`run_batch`'s rows)."""
     return run_batch(make_job(campaign_path), run_ids)[0]
@@ -107,50 +92,14 @@ def run_batch(job, run_ids, native=None):
     NativeUnavailableError
         ``native`` is True and the kernels cannot run in this process.
     """
-    import tempfile
-
-    from coopsat.scenarios.applied import applicable
-    from coopsat.scenarios.load import ScenarioError, load_scenario
     from coopsat.sim.engine import NonFiniteStateError
-    from coopsat.workflows.pipeline import analyse, prepare
-    from coopsat.workflows.sweep import build_runs, simulate_runs
+    from coopsat.workflows.pipeline import analyse
+    from coopsat.workflows.sweep import simulate_runs
 
     t0 = time.perf_counter()
     campaign = Campaign.model_validate(job["campaign"])
-    seqs = run_seed_sequences(campaign.master_seed, campaign.runs)
-    bases = base_values(job)
-    paths = [*(p for paths in job["fields"] for p in paths), "seed"]
-    rows, models, where = {}, [], []
-    with tempfile.TemporaryDirectory() as tmp:
-        scenario = Path(tmp) / "scenario.toml"
-        scenario.write_text(job["scenario_toml"])
-        # The runs' scenarios: the dispersed values set on one validated scenario where every
-        # dispersed field is applied as data (each checked as its field), else each run's
-        # scenario loaded whole with its overrides.
-        base = load_scenario(scenario) if applicable(paths) is None else None
-        for k in run_ids:
-            applied, seed, overrides = run_overrides(job, k, seqs, bases)
-            row = {"run_id": k, "status": "ok", "reason": "", "seed": seed, "params": json.dumps(applied)}
-            try:
-                models.append(_with_values(base, {**applied, "seed": seed}) if base is not None
-                              else load_scenario(scenario, overrides))
-                where.append(k)
-            except ScenarioError as err:
-                row.update(status="failed", reason=f"invalid scenario: {err}")
-            rows[k] = row
-    try:
-        builds, stacked, note = build_runs(models, paths)
-    except ScenarioError:
-        # A run that the build refuses (an impossible body, a graph that cannot agree) fails alone.
-        builds, stacked, note, kept = [], None, "each run built on its own", []
-        for k, m in zip(where, models):
-            try:
-                builds.append(prepare(m, check_published=False))
-                kept.append(k)
-            except ScenarioError as err:
-                rows[k].update(status="failed", reason=f"invalid scenario: {err}")
-        where = kept
-
+    rows, models, where = batch_models(job, campaign, run_ids)
+    builds, stacked, note, where = batch_builds(job, models, where, rows)
     series = {}
     # Taken here, on the worker that runs the batch, before it runs: it decides the native
     # kernels' path for the whole batch (the probe, if any, runs now).
@@ -180,31 +129,9 @@ def run_batch(job, run_ids, native=None):
             except NonFiniteStateError as err:
                 # The engine counts runs within the batch it ran (here a batch of one).
                 rows[k].update(status="failed", reason=re.sub(r"^(state became non-finite: )run \d+, ", r"\1", str(err)))
-    kept = None
-    if series:
-        import xarray as xr
-
-        ids = [k for k in run_ids if k in series]
-        # The run's attributes (its seed, its scenario) go; each variable's own (units, long
-        # name), the same in every run, stay: the report labels its axes with them.
-        kept = xr.concat([series[k].drop_attrs(deep=False) for k in ids], dim="run").assign_coords(run=ids)
-        # Text labels (spacecraft names, component letters) go to attributes: Zarr v3 has no
-        # specified fixed-width string type.
-        labels = [c for c in kept.coords if kept[c].dtype.kind == "U"]
-        kept = kept.drop_vars(labels).assign_attrs({f"{c}_labels": [str(v) for v in kept[c].values] for c in labels})
     # Not what decides the bits, but where the batch's time went (benchmarks/campaign_throughput.py).
     provenance["seconds"] = {**seconds, "total": time.perf_counter() - t0}
-    return [rows[k] for k in run_ids], kept, provenance
-
-
-def _with_values(model, values):
-    """``model`` with each ``{path: value}`` set as its field
-    (:func:`coopsat.scenarios.applied.with_value`)."""
-    from coopsat.scenarios.applied import with_value
-
-    for path, value in values.items():
-        model = with_value(model, path, value)
-    return model
+    return [rows[k] for k in run_ids], batch_series(series, run_ids), provenance
 
 
 def _scalar(v):

@@ -84,11 +84,20 @@ def bucket_runs(n_runs, full):
     return size
 
 
+def _group_spacecraft():
+    """Spacecraft in one group of a batch: :data:`GROUP_SPACECRAFT` on the CPU (its cache);
+    None on an accelerator, whose parallelism is the whole batch and for which each further
+    group is as many more kernel launches a tick (a GPU ran 1000 runs of N = 5, five groups, at
+    86 µs a tick, docs/performance.md)."""
+    return GROUP_SPACECRAFT if jax.devices()[0].platform == "cpu" else None
+
+
 def _batch_groups(n_runs, n_spacecraft, devices=1):
     """(groups, runs per group) for a batch: the fewest groups of at most
-    :data:`GROUP_SPACECRAFT` spacecraft, balanced (the last is padded to the same size), and a
-    multiple of ``devices`` (to share among them)."""
-    groups = max(1, math.ceil(n_runs * n_spacecraft / GROUP_SPACECRAFT))
+    :func:`_group_spacecraft` spacecraft (one group where that is None), balanced (the last is
+    padded to the same size), and a multiple of ``devices`` (to share among them)."""
+    limit = _group_spacecraft()
+    groups = 1 if limit is None else max(1, math.ceil(n_runs * n_spacecraft / limit))
     if devices > 1 and n_runs >= devices:
         groups = math.ceil(groups / devices) * devices
     return groups, math.ceil(n_runs / groups)

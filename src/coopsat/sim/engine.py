@@ -30,6 +30,7 @@ import numpy as np
 
 from coopsat.dynamics.plant import STATE_QUANTITIES
 from coopsat.sim.batching import CARRY_AXES, bucket_runs, prepare_batch
+from coopsat.sim.memory import runs_per_call
 from coopsat.sim.program_cache import ProgramCache
 from coopsat.sim.programs import _final_sample, _initial_carry, _run_chunk, _run_chunk_batched
 from coopsat.sim.tick import _quantities
@@ -328,7 +329,8 @@ def simulate_as_built(system, n_records, record_interval_s, *, batched=False, pr
     record_interval_s : float
         Time between samples, s (a whole number of control periods).
     batched : bool
-        ``vmap`` over the leading axis of every data leaf of ``system``.
+        ``vmap`` over the leading axis of every data leaf of ``system``; a batch larger than the
+        device holds (:func:`coopsat.sim.memory.runs_per_call`) runs in parts of as many runs.
     progress : bool
         Show progress on stderr: a bar on a terminal, a line per tenth otherwise
         (:func:`coopsat.core.progress.progress_bar`); it appears only once a run has taken 2 s.
@@ -359,10 +361,14 @@ def simulate_as_built(system, n_records, record_interval_s, *, batched=False, pr
     NonFiniteStateError
         When the state becomes NaN or infinite or diverges beyond :data:`DIVERGED`; the run
         stops at the chunk where it happened.
+
     """
     runtime.enable()
     if chunk is None:
         chunk = _chunk_size(n_records)
+    if batched and np.shape(system.key)[0] > (per_call := runs_per_call(system, chunk)):
+        return _simulate_in_parts(system, n_records, record_interval_s, per_call, progress=progress, chunk=chunk,
+                                  names=names, every_core=every_core, cancel=cancel)
     batch = prepare_batch(system, every_core, bucket) if batched else None
     if batch is not None:
         system = batch.system
@@ -385,6 +391,20 @@ def simulate_as_built(system, n_records, record_interval_s, *, batched=False, pr
     run_s = time.perf_counter() - t0
     samples = _assemble(system, chunks, last, n_records, batch)
     return RunOutput(t_s=t_s, samples=samples, compile_s=compile_s, run_s=run_s)
+
+
+def _simulate_in_parts(system, n_records, record_interval_s, per_call, **options):
+    """A batch larger than the device holds (:func:`~coopsat.sim.memory.runs_per_call`) run
+    ``per_call`` runs at a time (the last part padded to the same size, so one program serves
+    every part), as one :class:`RunOutput`."""
+    n_runs = int(np.shape(system.key)[0])
+    parts = [
+        simulate_as_built(jax.tree_util.tree_map(lambda leaf, a=a: leaf[a:a + per_call], system), n_records,
+                          record_interval_s, batched=True, bucket=per_call, **options)
+        for a in range(0, n_runs, per_call)
+    ]
+    return RunOutput(t_s=parts[0].t_s, samples={k: np.concatenate([p.samples[k] for p in parts]) for k in parts[0].samples},
+                     compile_s=sum(p.compile_s for p in parts), run_s=sum(p.run_s for p in parts))
 
 
 def run_samples(system, n_records):

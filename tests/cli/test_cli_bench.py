@@ -54,3 +54,21 @@ def test_a_million_spacecraft_ring_builds_from_an_edge_list():
     grown_gb = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024**2
     assert system.network.src.shape == (2, 1_000_000)  # the padded in-neighbour table of a ring
     assert grown_gb < 2.0
+
+
+def test_on_a_gpu_the_bench_adds_its_section():
+    """The GPU section names the device and its memory and asks for the rows a GPU is for."""
+    import contextlib
+    import io
+    import types
+
+    rows = []
+    device = types.SimpleNamespace(platform="gpu", device_kind="NVIDIA H200",
+                                   memory_stats=lambda: {"bytes_limit": 140 * 2**30})
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        bench.gpu_section(lambda *args: rows.append(args), device)
+    assert out.getvalue() == "GPU section: NVIDIA H200, 140 GiB\n"
+    assert rows == [("torque-free", 100_000, "none", None), ("consensus", 100_000, "consensus-sync", None),
+                    ("torque-free", 1_000_000, "none", None), ("consensus", 1_000_000, "consensus-sync", None),
+                    ("consensus", 5, "consensus-sync", 10_000), ("consensus", 5, "consensus-sync", 100_000)]

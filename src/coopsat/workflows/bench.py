@@ -4,7 +4,9 @@ Three cases per formation size N: a torque-free rigid body (N independent bodies
 on an undirected ring with the controller evaluated every tick (the costliest rate) and an
 ideal torque actuator; and the same over a network that delays every message by 2 s (a ring
 buffer of 201 periods of outboxes). Then batches of runs of N = 5 (a Monte Carlo campaign's
-shape). One "spacecraft-step" is one spacecraft advanced by one RK4 tick.
+shape). One "spacecraft-step" is one spacecraft advanced by one RK4 tick. When JAX runs on a
+GPU, a GPU section follows (:func:`gpu_section`): formations of 1e5 and 1e6 spacecraft and
+batches of 1e4 and 1e5 runs.
 
 Each consensus row is also quoted as a fraction of the *ceiling*: the same arithmetic (law (3)
 on the ring, clip, RK4, renormalisation) as one fused, vectorised numba loop over
@@ -142,6 +144,29 @@ def load_ceiling():
     return module, None
 
 
+GPU_SIZES = (100_000, 1_000_000)
+"""Formation sizes of the GPU section's single runs (:func:`gpu_section`)."""
+
+GPU_BATCHES = (10_000, 100_000)
+"""Runs of N = 5 in the GPU section's batches."""
+
+
+def gpu_section(row, device):
+    """The rows a GPU is for, printed after the others when JAX runs on one: consensus and
+    torque-free formations of :data:`GPU_SIZES` and consensus batches of :data:`GPU_BATCHES`
+    runs of N = 5 (a batch larger than the device holds runs in parts, :mod:`coopsat.sim.memory`).
+    ``row(label, n, controller, batch)`` prints one row (:func:`run_benchmarks`'s)."""
+    from coopsat.sim.memory import device_memory_bytes
+
+    print(f"GPU section: {getattr(device, 'device_kind', device.platform)}, {device_memory_bytes(device) / 2**30:.0f} GiB",
+          flush=True)
+    for n in GPU_SIZES:
+        for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
+            row(label, n, controller, None)
+    for b in GPU_BATCHES:
+        row("consensus", 5, "consensus-sync", b)
+
+
 def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=True, orbit_sizes=(100, 1000)):
     """Print a throughput table for each case and size, then the batched (campaign) lines, with
     each consensus row's fraction of the ceiling measured alongside. ``native=False``: the
@@ -196,6 +221,8 @@ def run_benchmarks(sizes=(1, 5, 1000, 10000), steps=None, batch=1000, native=Tru
     if batch:
         for controller, label in (("none", "torque-free"), ("consensus-sync", "consensus")):
             row(label, 5, controller, batch)
+    if jax.devices()[0].platform != "cpu":
+        gpu_section(row, jax.devices()[0])
     for n in orbit_sizes:
         ticks = steps or 200
         times = {}

@@ -2,12 +2,13 @@
 ``coopsat topology``.
 
 :data:`GRAPH_KINDS` maps every ``kind`` of a graph table to its builder
-``(graph, names, where) -> A (n, n)``: ``graph`` is the table (the fields of
+``(graph, names, where) -> EdgeList``: ``graph`` is the table (the fields of
 :class:`coopsat.scenarios.schema.Graph`: ``kind``, ``directed``, ``weight``, ``hub``, ``edges``,
 ``adjacency``), ``names`` the spacecraft in state order and ``where`` the table's place in the
-scenario (``network``, ``network.switches[0]``), which every message names. ``A[i, j]`` is the
-weight with which i hears j (:mod:`coopsat.network.topology`). A graph that cannot be built
-raises :class:`~coopsat.network.topology.GraphError` with one line.
+scenario (``network``, ``network.switches[0]``), which every message names. The graph is a
+:class:`~coopsat.network.edge_list.EdgeList` (memory linear in the links, whatever the number of
+spacecraft): a link j → i with weight ``a_ij`` means i hears j (:mod:`coopsat.network.topology`).
+A graph that cannot be built raises :class:`~coopsat.network.topology.GraphError` with one line.
 
 :func:`named_graph` gives the graphs that ``coopsat topology`` knows by name
 (:data:`NAMED_GRAPH_NAMES`, ``mesh`` being the complete graph) for a number of nodes.
@@ -16,22 +17,21 @@ Importing this module imports neither networkx nor SciPy (the scenario schema re
 :data:`GRAPH_KINDS`): the builders load :mod:`coopsat.network.topology` when they run.
 """
 
-import numpy as np
+from coopsat.network import edge_list
 
 
 def _none(graph, names, where):
     """No links: nobody hears anybody."""
-    n = len(names)
-    return np.zeros((n, n))
+    return edge_list.empty(len(names))
 
 
 def _named(kind):
     """The builder of a named graph of unit links (ring, chain, complete), times ``weight``."""
 
-    def build(graph, names, where):
-        from coopsat.network import topology
+    make = {"ring": edge_list.ring, "chain": edge_list.chain, "complete": lambda n, directed: edge_list.complete(n)}[kind]
 
-        return graph.weight * topology.NAMED_GRAPHS[kind](len(names), directed=graph.directed)
+    def build(graph, names, where):
+        return make(len(names), directed=graph.directed).scaled(graph.weight)
 
     build.__name__ = build.__qualname__ = f"_{kind}"
     build.__doc__ = f"The {kind} of the spacecraft in state order, every link of weight ``weight``."
@@ -46,7 +46,7 @@ def _star(graph, names, where):
     hub = graph.hub or names[0]
     if hub not in index:
         raise topology.GraphError(f"{where}.hub: unknown spacecraft '{hub}' (known: {', '.join(names)})")
-    return graph.weight * topology.star_adjacency(len(names), graph.directed, hub=index[hub])
+    return edge_list.star(len(names), graph.directed, hub=index[hub]).scaled(graph.weight)
 
 
 def _edges(graph, names, where):
@@ -54,16 +54,15 @@ def _edges(graph, names, where):
     from coopsat.network import topology
 
     index = {name: k for k, name in enumerate(names)}
-    triples = []
-    for k, (src, dst, w) in enumerate(graph.edges):
-        for end in (src, dst):
+    src, dst, weight = [], [], []
+    for k, (j, i, w) in enumerate(graph.edges):
+        for end in (j, i):
             if end not in index:
                 raise topology.GraphError(f"{where}.edges[{k}]: unknown spacecraft '{end}' (known: {', '.join(names)})")
-        triples.append((index[src], index[dst], w))
-    try:
-        return topology.adjacency_from_edges(len(names), triples, graph.directed)
-    except topology.GraphError as err:
-        raise topology.GraphError(str(err).replace("network", where, 1)) from None
+        src.append(index[j])
+        dst.append(index[i])
+        weight.append(w)
+    return edge_list.edge_list(len(names), src, dst, weight, graph.directed, where=f"{where}.edges")
 
 
 def _adjacency(graph, names, where):
@@ -77,7 +76,7 @@ def _adjacency(graph, names, where):
         raise topology.GraphError(str(err).replace("network", where, 1)) from None
     if a.shape[0] != n:
         raise topology.GraphError(f"{where}.adjacency: is {a.shape[0]}×{a.shape[0]} but there are {n} spacecraft")
-    return a
+    return edge_list.from_adjacency(a)
 
 
 GRAPH_KINDS = {
@@ -89,12 +88,12 @@ GRAPH_KINDS = {
     "edges": _edges,
     "adjacency": _adjacency,
 }
-"""Builder ``(graph, names, where) -> A (n, n)`` of every graph ``kind``, in the order the
+"""Builder ``(graph, names, where) -> EdgeList`` of every graph ``kind``, in the order the
 scenario schema and docs/scenarios.md list them."""
 
 
-def graph_adjacency(graph, names, where="network"):
-    """Adjacency ``A[i, j]`` (i hears j) of one graph table of a scenario, shape (n, n).
+def graph_edges(graph, names, where="network"):
+    """The links of one graph table of a scenario (``.toarray()`` gives ``A[i, j]``, i hears j).
 
     Parameters
     ----------
@@ -103,6 +102,11 @@ def graph_adjacency(graph, names, where="network"):
         Spacecraft names, in state order.
     where : str
         The graph's place in the scenario, for error messages.
+
+    Returns
+    -------
+    coopsat.network.edge_list.EdgeList
+        Memory linear in the links (a ring of 1e6 spacecraft is 2e6 links, not 1e12 entries).
 
     Raises
     ------

@@ -70,10 +70,10 @@ def check_spanning_tree(table, ctx):
     if table.kind == "consensus-track" or ctx.n == 1:
         return None
     problems = []
-    for where, adjacency in zip(ctx.graph_places, ctx.adjacencies):
-        if topology.spanning_tree_roots(adjacency):
+    for where, graph in zip(ctx.graph_places, ctx.graphs):  # linear in the links: every formation's size
+        if topology.spanning_tree_roots(graph):
             continue
-        groups = topology.describe_components(adjacency, ctx.names)
+        groups = topology.describe_components(graph, ctx.names)
         msg = f"{where}: the graph has no spanning tree, so law (3) cannot bring every spacecraft to consensus ({groups})"
         if ctx.scenario.network.require_spanning_tree:
             raise DesignError(msg + "; set network.require_spanning_tree = false to run it anyway")

@@ -45,7 +45,7 @@ def _build(table, ctx):
 
     if ctx.scenario.orbit is None:
         raise DesignError("controller: lvlh-consensus needs an [orbit] table (it measures r_eci and v_eci)")
-    if not any(np.any(a) for a in ctx.adjacencies):
+    if not any(g.n_links for g in ctx.graphs):
         raise DesignError("controller: lvlh-consensus keeps slots relative to the spacecraft heard; give a [network] graph")
     slots = np.asarray(table.slot_lvlh_m, dtype=float)
     if slots.shape[0] != ctx.n:

@@ -20,30 +20,33 @@ def _build_ideal(table, ctx):
     from coopsat.network.delivery import IdealNetwork
     from coopsat.sim.system import as_arrays
 
-    links = topology.links_for_schedule(ctx.adjacencies)
+    links = topology.links_for_schedule(ctx.graphs)
     return IdealNetwork(*as_arrays((links.src, links.dst, links.weight, ctx.switch_ticks)))
 
 
 def _edge_weight_tunables(table, ctx, part):
     """``edges``: the weights of an edge-list graph (``[network] kind = "edges"``, no
-    switches), in the file's order. The links' weights are linear in them (each edge's
-    adjacency, read at the links' receivers and transmitters), so they enter traced."""
+    switches), in the file's order. Each link carries the weight of the one edge it comes
+    from (the schema refuses a pair given twice), gathered traced: memory linear in the links."""
     from dataclasses import replace
 
     import jax.numpy as jnp
     import numpy as np
 
-    from coopsat.network import topology
+    from coopsat.network import edge_list
 
     graph = ctx.scenario.network
     if graph.kind != "edges" or graph.switches:
         return {}
     index = {name: k for k, name in enumerate(ctx.names)}
-    basis = np.stack([topology.adjacency_from_edges(ctx.n, [(index[a], index[b], 1.0)], graph.directed) for a, b, _ in graph.edges])
-    per_link = jnp.asarray(basis[:, np.asarray(part.dst), np.asarray(part.src)])  # (edges, links…)
+    src, dst = (np.array([index[e[end]] for e in graph.edges], dtype=np.int64) for end in (0, 1))
+    # The edges numbered from 1 as weights: read at the links, 0 is a padding slot.
+    numbered = edge_list.edge_list(ctx.n, src, dst, np.arange(1, src.size + 1), graph.directed)
+    edge_of = numbered.weights_at(np.asarray(part.dst), np.asarray(part.src)).astype(np.int64) - 1  # (links…)
+    carries, at = jnp.asarray(edge_of >= 0), jnp.asarray(np.maximum(edge_of, 0))
 
     def apply(p, w):
-        return replace(p, weight=jnp.tensordot(w, per_link, axes=1)[None])
+        return replace(p, weight=jnp.where(carries, jnp.asarray(w)[at], 0.0)[None])
 
     def write(w):
         return {"network.edges": [[a, b, float(v)] for (a, b, _), v in zip(graph.edges, np.asarray(w))]}

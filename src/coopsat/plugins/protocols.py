@@ -45,6 +45,7 @@ each with its default, declared once in :data:`OPTIONAL` and read through :func:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 from typing import TYPE_CHECKING, Any, Iterable, Mapping, Protocol, runtime_checkable
 
@@ -77,8 +78,9 @@ class BuildContext:
     inertia_kgm2 : ndarray (n, 3, 3)
     dt_s, period_s : float
         Base tick and control period, s.
-    adjacencies : list of ndarray (n, n)
-        Every graph of the run in time order (``A[i, j]``: i hears j).
+    graphs : list of coopsat.network.edge_list.EdgeList
+        Every graph of the run in time order, as its links (j → i with weight ``a_ij``: i hears
+        j), memory linear in them: a builder that must scale to big formations reads these.
     graph_places : list of str
         Each graph's place in the scenario (``"network"``, ``"network.switches[0]"``).
     switch_ticks : ndarray of int (G,)
@@ -92,7 +94,7 @@ class BuildContext:
     inertia_kgm2: object
     dt_s: float
     period_s: float
-    adjacencies: list
+    graphs: list
     graph_places: list
     switch_ticks: object
     r_eci_m: object = None
@@ -101,6 +103,12 @@ class BuildContext:
     @property
     def n(self):
         return len(self.names)
+
+    @functools.cached_property
+    def adjacencies(self):
+        """Every graph of the run as ``A[i, j]`` (i hears j), list of ndarray (n, n): n² memory
+        each, made when first asked (eigen-analysis, routes); :attr:`graphs` scale."""
+        return [g.toarray() for g in self.graphs]
 
     def index(self, name, where):
         """The state-order index of spacecraft ``name``.

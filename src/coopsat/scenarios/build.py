@@ -1,6 +1,6 @@
 """Turn a validated scenario into a compiled-loop :class:`~coopsat.sim.system.System`.
 
-Design-time work happens here: degrees become radians, graphs become adjacency matrices,
+Design-time work happens here: degrees become radians, graphs become edge lists,
 orbital elements become ECI states, and every plug-in of the scenario (controller, network
 model, sensors, actuators, disturbances) builds its in-loop part and runs its design-time
 checks (:mod:`coopsat.plugins`). This module never names a kind.
@@ -8,11 +8,12 @@ checks (:mod:`coopsat.plugins`). This module never names a kind.
 
 import warnings
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from coopsat.core.errors import CoopsatWarning
-from coopsat.network.graphs import graph_adjacency
+from coopsat.network.graphs import graph_edges
 from coopsat.network.topology import GraphError
 from coopsat.plugins import BuildContext, DesignCheck, DesignError, plugin_for
 from coopsat.plugins.tables import arithmetic_message, float_errors_raise
@@ -35,10 +36,9 @@ class Built:
     system : coopsat.sim.system.System
     names : list of str
         Spacecraft names, in state order.
-    adjacency : ndarray (n, n)
-        ``A[i, j]`` = weight with which i hears j, of the graph at t = 0.
-    adjacencies : list of ndarray (n, n)
-        Every graph of the run, in time order (one unless the topology switches).
+    graphs : list of coopsat.network.edge_list.EdgeList
+        Every graph of the run, in time order (one unless the topology switches): its links,
+        memory linear in them (:attr:`adjacencies` are the dense matrices).
     switch_times_s : list of float
         When each graph takes over (the first at 0).
     n_records : int
@@ -57,8 +57,7 @@ class Built:
     scenario: Scenario
     system: object
     names: list
-    adjacency: np.ndarray
-    adjacencies: list
+    graphs: list
     switch_times_s: list
     n_records: int
     record_interval_s: float
@@ -66,6 +65,17 @@ class Built:
     plugins: list
     context: BuildContext
     warnings: list
+
+    @cached_property
+    def adjacencies(self):
+        """Every graph of the run as ``A[i, j]`` (weight with which i hears j), ndarray (n, n)
+        each: n² memory, made when first asked (a formation of 1e5 spacecraft has 80 GB of them)."""
+        return self.context.adjacencies
+
+    @property
+    def adjacency(self):
+        """``A[i, j]`` of the graph at t = 0, ndarray (n, n) (see :attr:`adjacencies`)."""
+        return self.adjacencies[0]
 
     @property
     def named_checks(self):
@@ -86,9 +96,10 @@ def inertia_matrix(inertia):
     return np.diag(inertia) if np.ndim(inertia) == 1 else np.asarray(inertia, dtype=float)
 
 
-def build_adjacency(network, names, where="network"):
-    """Adjacency ``A[i, j]`` (i hears j) of one graph of the scenario, shape (n, n): the builder
-    of its kind (:data:`coopsat.network.graphs.GRAPH_KINDS`).
+def build_graph(network, names, where="network"):
+    """The links of one graph of the scenario, an :class:`~coopsat.network.edge_list.EdgeList`
+    (``.toarray()``: ``A[i, j]``, i hears j): the builder of its kind
+    (:data:`coopsat.network.graphs.GRAPH_KINDS`).
 
     Parameters
     ----------
@@ -103,7 +114,7 @@ def build_adjacency(network, names, where="network"):
         A graph that names an unknown spacecraft or is malformed (the graph's own message).
     """
     try:
-        return graph_adjacency(network, names, where)
+        return graph_edges(network, names, where)
     except GraphError as err:
         raise ScenarioError(str(err)) from None
 
@@ -235,8 +246,7 @@ def build(scenario):
         scenario=scenario,
         system=system,
         names=ctx.names,
-        adjacency=ctx.adjacencies[0],
-        adjacencies=ctx.adjacencies,
+        graphs=ctx.graphs,
         switch_times_s=switch_times,
         n_records=whole_ratio(scenario.sim.t_final_s, scenario.record_interval_s),
         record_interval_s=scenario.record_interval_s,
@@ -263,12 +273,12 @@ def _context(scenario):
         raise ScenarioError(str(err)) from None
     places = ["network"] + [f"network.switches[{k}]" for k in range(len(scenario.network.switches))]
     graphs = [scenario.network, *scenario.network.switches]
-    adjacencies = [build_adjacency(g, names, where) for g, where in zip(graphs, places)]
+    graphs = [build_graph(g, names, where) for g, where in zip(graphs, places)]
     switch_times = [0.0] + [sw.t_s for sw in scenario.network.switches]
     dt = scenario.sim.dt_s
     ctx = BuildContext(
         scenario=scenario, names=names, inertia_kgm2=inertia, dt_s=dt, period_s=scenario.control_period_s,
-        adjacencies=adjacencies, graph_places=places,
+        graphs=graphs, graph_places=places,
         switch_ticks=np.array([round(t / dt) for t in switch_times], dtype=np.int64),
         r_eci_m=np.array([r for r, _ in rv], dtype=float), v_eci_m_s=np.array([v for _, v in rv], dtype=float),
     )
@@ -358,7 +368,7 @@ def _plant(scenario, inertia):
     from coopsat.dynamics.plant import PlantParams
 
     orbit = scenario.orbit
-    if all(np.count_nonzero(m - np.diag(np.diag(m))) == 0 for m in inertia):
+    if not np.any(inertia[:, ~np.eye(3, dtype=bool)]):
         # Principal axes = body axes for every spacecraft: the loop takes the cheaper diagonal path.
         inertia_in, inertia_inv = np.diagonal(inertia, axis1=1, axis2=2), 1.0 / np.diagonal(inertia, axis1=1, axis2=2)
     else:

@@ -304,9 +304,11 @@ class Graph(Table):
         if self.edges:
             pairs = [(a, b) for a, b, _ in self.edges]
             pairs += [] if self.directed else [(b, a) for a, b, _ in self.edges]
-            dup = next((p for k, p in enumerate(pairs) if p in pairs[:k]), None)
-            if dup is not None:
-                raise ValueError(f"edges: link {dup[0]} -> {dup[1]} is given twice")
+            seen = set()  # a set, not a scan of the pairs before: a long edge list is not quadratic
+            for pair in pairs:
+                if pair in seen:
+                    raise ValueError(f"edges: link {pair[0]} -> {pair[1]} is given twice")
+                seen.add(pair)
         if self.kind == "edges" and not self.edges:
             raise ValueError("kind = 'edges' needs a non-empty edges list [[transmitter, receiver, weight], ...]")
         if self.kind == "adjacency" and self.adjacency is None:

@@ -55,14 +55,15 @@ def bench_system(n, controller, dt_s=0.01, record_ticks=1000, seed=0, delayed=Fa
     from coopsat.control.consensus import ConsensusLaw
     from coopsat.control.free import NoControl
     from coopsat.dynamics.plant import PlantParams, PlantState
-    from coopsat.network.topology import links_from_edges, ring_edges
+    from coopsat.network import edge_list
+    from coopsat.network.topology import links_from_edges
     from coopsat.sim.system import Structure, System, as_arrays
 
     q, omega, principal = random_formation(n, seed)
     zeros = np.zeros((n, 3))
     # An edge list from the start: a ring of a million spacecraft is 2e6 links, not 1e12 entries.
-    ring = ring_edges(n) if controller != "none" else ring_edges(1)
-    links = links_from_edges(*ring, n)
+    ring = edge_list.ring(n) if controller != "none" else edge_list.empty(n)
+    links = links_from_edges(ring.src, ring.dst, ring.weight, n)
     structure = Structure(
         n_spacecraft=n, gravity="none", attitude="rigid-body", ticks_per_period=1, periods_per_record=record_ticks,
         substeps=1, native=native,

@@ -21,7 +21,7 @@ def resolve_graphs(refs, nodes):
     ScenarioError
         A reference that is none of these, or a file that is not an adjacency matrix.
     """
-    from coopsat.scenarios.build import build_adjacency
+    from coopsat.scenarios.build import build_graph
 
     graphs = {}
     for ref in refs:
@@ -29,7 +29,7 @@ def resolve_graphs(refs, nodes):
             graphs[ref] = named_graph(ref, nodes)
         elif ref in bundled_names() or ref.endswith(".toml"):
             scenario = load_scenario(ref)
-            graphs[scenario.name] = build_adjacency(scenario.network, [sc.name for sc in scenario.spacecraft])
+            graphs[scenario.name] = build_graph(scenario.network, [sc.name for sc in scenario.spacecraft]).toarray()
         elif Path(ref).is_file():
             try:
                 a = np.loadtxt(ref, delimiter="," if ref.endswith(".csv") else None, ndmin=2)

@@ -1,5 +1,6 @@
 """coopsat.network.graphs: one builder per graph kind of a scenario, the named graphs of
-``coopsat topology``; the references are topology's own constructors."""
+``coopsat topology``; the references are topology's dense constructors (themselves checked
+against loops over the nodes in test_edge_list)."""
 
 import typing
 from types import SimpleNamespace
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 from coopsat.network import topology
-from coopsat.network.graphs import GRAPH_KINDS, NAMED_GRAPH_NAMES, graph_adjacency, named_graph
+from coopsat.network.graphs import GRAPH_KINDS, NAMED_GRAPH_NAMES, graph_edges, named_graph
 from coopsat.scenarios.schema import Graph
 
 NAMES = ["a", "b", "c", "d"]
@@ -26,14 +27,14 @@ def test_the_schema_takes_its_graph_kinds_from_the_registry():
 @pytest.mark.parametrize("kind", ["ring", "chain", "complete"])
 @pytest.mark.parametrize("directed", [False, True])
 def test_named_kinds_are_topology_graphs_times_the_weight(kind, directed):
-    a = graph_adjacency(_graph(kind=kind, directed=directed, weight=0.5), NAMES)
+    a = graph_edges(_graph(kind=kind, directed=directed, weight=0.5), NAMES).toarray()
     np.testing.assert_array_equal(a, 0.5 * topology.NAMED_GRAPHS[kind](4, directed=directed))
 
 
 def test_star_around_a_named_hub_and_the_other_kinds():
-    np.testing.assert_array_equal(graph_adjacency(_graph(kind="star", hub="c"), NAMES), topology.star_adjacency(4, hub=2))
-    np.testing.assert_array_equal(graph_adjacency(_graph(), NAMES), np.zeros((4, 4)))
-    a = graph_adjacency(_graph(kind="edges", directed=True, edges=[["a", "b", 2.0]]), NAMES)
+    np.testing.assert_array_equal(graph_edges(_graph(kind="star", hub="c"), NAMES).toarray(), topology.star_adjacency(4, hub=2))
+    np.testing.assert_array_equal(graph_edges(_graph(), NAMES).toarray(), np.zeros((4, 4)))
+    a = graph_edges(_graph(kind="edges", directed=True, edges=[["a", "b", 2.0]]), NAMES).toarray()
     assert a[1, 0] == 2.0 and np.count_nonzero(a) == 1
 
 
@@ -47,7 +48,7 @@ def test_star_around_a_named_hub_and_the_other_kinds():
 ])
 def test_a_bad_graph_is_one_line_naming_its_place(fields, message):
     with pytest.raises(topology.GraphError) as err:
-        graph_adjacency(_graph(**fields), NAMES, "network.switches[1]")
+        graph_edges(_graph(**fields), NAMES, "network.switches[1]")
     assert str(err.value).startswith(message)
 
 

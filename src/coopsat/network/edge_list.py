@@ -4,7 +4,7 @@ A ring of a hundred thousand spacecraft is 2e5 links (a few megabytes), where it
 matrix would be 80 GB. The direction convention is :mod:`coopsat.network.topology`'s: a link
 ``j → i`` means i hears j, with weight ``a_ij > 0``. The dense matrix is made only where an
 algorithm needs one (:meth:`EdgeList.toarray`: eigen-analysis of small formations, the
-``coopsat topology`` metrics, the delayed network's routes).
+``coopsat topology`` metrics, the paired arrays of a report).
 
 Importing this module imports NumPy only (every scenario build makes its graphs here).
 """
@@ -45,6 +45,34 @@ class EdgeList:
         a[self.dst, self.src] = self.weight
         return a
 
+    def index_of(self, dst, src):
+        """Position of each pair's link in ``src``/``dst``, −1 where there is none.
+
+        Parameters
+        ----------
+        dst, src : array_like of int, one shape (any)
+            Receivers i and transmitters j.
+
+        Returns
+        -------
+        ndarray of int64, that shape
+        """
+        dst, src = np.asarray(dst, dtype=np.int64), np.asarray(src, dtype=np.int64)
+        if self.n_links == 0:
+            return np.full(dst.shape, -1, dtype=np.int64)
+        keys = self.dst * self.n + self.src  # ascending: sorted by receiver, then transmitter
+        asked = dst * self.n + src
+        at = np.minimum(np.searchsorted(keys, asked), keys.size - 1)
+        return np.where(keys[at] == asked, at, -1)
+
+    def values_at(self, values, dst, src):
+        """``values`` (one per link, shape (E,)) at the pairs (``dst`` = i, ``src`` = j), 0 where
+        there is no link; the pairs' shape."""
+        values, at = np.asarray(values), self.index_of(dst, src)
+        if values.size == 0:
+            return np.zeros(at.shape, dtype=values.dtype)
+        return np.where(at >= 0, values[np.maximum(at, 0)], 0)
+
     def weights_at(self, dst, src):
         """``a_ij`` at the pairs (``dst`` = i, ``src`` = j), 0 where there is no link.
 
@@ -56,13 +84,7 @@ class EdgeList:
         -------
         ndarray of float, that shape
         """
-        dst, src = np.asarray(dst, dtype=np.int64), np.asarray(src, dtype=np.int64)
-        if self.n_links == 0:
-            return np.zeros(dst.shape)
-        keys = self.dst * self.n + self.src  # ascending: sorted by receiver, then transmitter
-        asked = dst * self.n + src
-        at = np.minimum(np.searchsorted(keys, asked), keys.size - 1)
-        return np.where(keys[at] == asked, self.weight[at], 0.0)
+        return self.values_at(self.weight, dst, src)
 
     def scaled(self, factor):
         """Every weight times ``factor`` (> 0)."""

@@ -2,64 +2,88 @@
 
 A message from j to i travels the shortest directed path of the physical graph (fewest hops;
 among equally short paths, the one with the least fixed delay), and arrives late by the sum
-of the per-hop delays along it. Computed with networkx for each topology epoch; the compiled
-loop only indexes the resulting arrays.
+of the per-hop delays along it. Computed for each topology epoch (networkx where messages are
+relayed); the compiled loop only indexes the resulting arrays.
+
+Routes are lists of heard pairs, memory linear in them: direct delivery over a ring of 1e5
+spacecraft is 2e5 pairs. Relaying makes every reachable pair heard, up to n (n − 1): that is
+the model (every spacecraft hears every other), not a matrix kept for convenience.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
+from coopsat.network import edge_list
 from coopsat.network.topology import information_digraph
 
 
 @dataclass(frozen=True)
 class Routes:
-    """Heard pairs of one topology epoch as dense (n, n) arrays (``[i, j]``: i hears j).
+    """Heard pairs of one topology epoch (i hears j), each once.
 
     Attributes
     ----------
-    weight : ndarray (n, n)
-        Weight ``a_ij`` with which i uses what it hears from j (0: i does not hear j).
-    hops : ndarray of int (n, n)
-        Links on the route from j to i (0 where i does not hear j).
-    delay_periods : ndarray of int (n, n)
-        Sum of the fixed per-hop delays along the route, in control periods.
+    heard : coopsat.network.edge_list.EdgeList
+        The pairs (``src`` j, ``dst`` i, sorted by receiver then transmitter) and the weight
+        ``a_ij`` with which i uses what it hears from j.
+    hops : ndarray of int (P,)
+        Links on the route from j to i, per pair (≥ 1).
+    delay_periods : ndarray of int (P,)
+        Sum of the fixed per-hop delays along the route, control periods, per pair.
     """
 
-    weight: np.ndarray
+    heard: edge_list.EdgeList
     hops: np.ndarray
     delay_periods: np.ndarray
 
+    def matrices(self):
+        """(weight, hops, delay_periods) as dense (n, n) arrays ``[i, j]`` (i hears j; 0 where
+        it does not): n² memory, for small formations and tests."""
+        n, dst, src = self.heard.n, self.heard.dst, self.heard.src
+        out = []
+        for values, dtype in ((self.heard.weight, float), (self.hops, np.int64), (self.delay_periods, np.int64)):
+            m = np.zeros((n, n), dtype=dtype)
+            m[dst, src] = values
+            out.append(m)
+        return tuple(out)
 
-def direct_routes(adjacency, link_delay_periods):
+
+def per_link(graph, link_delay_periods):
+    """Fixed delays of ``graph``'s links, one per link: given so (E,), or read from a matrix
+    ``C[i, j]`` (n, n) at the links (entries off the links are ignored)."""
+    c = np.asarray(link_delay_periods, dtype=np.int64)
+    return c[graph.dst, graph.src] if c.ndim == 2 else c
+
+
+def direct_routes(graph, link_delay_periods):
     """Each spacecraft hears only its direct neighbours: one hop, that link's delay.
 
     Parameters
     ----------
-    adjacency : ndarray (n, n)
-        ``A[i, j] > 0`` iff i hears j directly, with the link's weight.
-    link_delay_periods : ndarray of int (n, n)
-        Fixed delay of each direct link j→i, control periods.
+    graph : EdgeList or ndarray (n, n)
+        The links (``A[i, j] > 0`` iff i hears j directly, with the link's weight).
+    link_delay_periods : ndarray of int (E,) or (n, n)
+        Fixed delay of each direct link j→i, control periods (:func:`per_link`).
 
     Returns
     -------
     Routes
     """
-    a = np.asarray(adjacency, dtype=float)
-    on = a > 0
-    return Routes(a.copy(), on.astype(np.int64), np.where(on, link_delay_periods, 0).astype(np.int64))
+    e = edge_list.as_edge_list(graph)
+    e = edge_list.EdgeList(e.src, e.dst, np.array(e.weight, dtype=float), e.n)  # not a view of the caller's weights
+    return Routes(e, np.ones(e.n_links, dtype=np.int64), per_link(e, link_delay_periods).copy())
 
 
-def relayed_routes(adjacency, link_delay_periods, relay_weight):
+def relayed_routes(graph, link_delay_periods, relay_weight):
     """Every spacecraft hears every other it can reach, over the shortest directed path.
 
     Parameters
     ----------
-    adjacency : ndarray (n, n)
+    graph : EdgeList or ndarray (n, n)
         Physical links, ``A[i, j] > 0`` iff j transmits to i directly.
-    link_delay_periods : ndarray of int (n, n)
-        Fixed delay of each direct link j→i, control periods.
+    link_delay_periods : ndarray of int (E,) or (n, n)
+        Fixed delay of each direct link j→i, control periods (:func:`per_link`).
     relay_weight : float
         Weight of a pair heard over more than one hop; a direct neighbour keeps its link's
         weight.
@@ -67,7 +91,7 @@ def relayed_routes(adjacency, link_delay_periods, relay_weight):
     Returns
     -------
     Routes
-        Unreachable pairs have weight 0.
+        Unreachable pairs are not heard.
 
     Notes
     -----
@@ -78,42 +102,46 @@ def relayed_routes(adjacency, link_delay_periods, relay_weight):
     """
     import networkx as nx  # 0.15 s to import: only where routes are relayed, not for direct links
 
-    a = np.asarray(adjacency, dtype=float)
-    c = np.asarray(link_delay_periods, dtype=np.int64)
-    n = a.shape[0]
-    g = information_digraph(a)
-    scale = 1.0 + float(np.where(a > 0, c, 0).sum())
-    for j, i in g.edges:
-        g.edges[j, i]["cost"] = 1.0 + c[i, j] / scale
-    weight = np.zeros((n, n))
-    hops = np.zeros((n, n), dtype=np.int64)
-    delay = np.zeros((n, n), dtype=np.int64)
+    e = edge_list.as_edge_list(graph)
+    c = per_link(e, link_delay_periods)
+    g = information_digraph(e)
+    scale = 1.0 + float(c.sum())
+    delay_of = {}
+    for j, i, d in zip(e.src.tolist(), e.dst.tolist(), c.tolist()):
+        g.edges[j, i]["cost"] = 1.0 + d / scale
+        delay_of[j, i] = d
+    src, dst, hops, delay = [], [], [], []
     for j, paths in nx.all_pairs_dijkstra_path(g, weight="cost"):
         for i, path in paths.items():
-            if i == j:
-                continue
-            hops[i, j] = len(path) - 1
-            delay[i, j] = sum(c[b, a_] for a_, b in zip(path[:-1], path[1:]))
-            weight[i, j] = a[i, j] if a[i, j] > 0 else relay_weight
-    return Routes(weight, hops, delay)
+            if i != j:
+                src.append(j)
+                dst.append(i)
+                hops.append(len(path) - 1)
+                delay.append(sum(delay_of[u, v] for u, v in zip(path[:-1], path[1:])))
+    direct = e.weights_at(dst, src)
+    heard = edge_list.edge_list(e.n, src, dst, np.where(direct > 0, direct, relay_weight)) if src else edge_list.empty(e.n)
+    order = heard.index_of(dst, src)  # each pair's place among the sorted heard pairs
+    sorted_hops, sorted_delay = np.zeros(heard.n_links, np.int64), np.zeros(heard.n_links, np.int64)
+    sorted_hops[order], sorted_delay[order] = hops, delay
+    return Routes(heard, sorted_hops, sorted_delay)
 
 
 def lost_route(before, after, names):
     """A pair (receiver, transmitter) of names heard in ``before`` but unreachable in ``after``,
     or None (a link failure that leaves no route between two spacecraft that talked)."""
-    lost = (before.weight > 0) & (after.weight == 0)
-    if not lost.any():
+    b = before.heard
+    lost = np.flatnonzero(after.heard.weights_at(b.dst, b.src) == 0)
+    if not lost.size:
         return None
-    i, j = np.argwhere(lost)[0]
-    return names[i], names[j]
+    return names[b.dst[lost[0]]], names[b.src[lost[0]]]
 
 
-def link_delays(adjacency, default_periods, overrides):
-    """Per-link fixed delay matrix ``C[i, j]`` (link j→i), control periods.
+def link_delays(graph, default_periods, overrides):
+    """Fixed delay of each link of ``graph``, control periods, one per link (E,).
 
     Parameters
     ----------
-    adjacency : ndarray (n, n)
+    graph : EdgeList or ndarray (n, n)
     default_periods : int
         Delay of every link not overridden.
     overrides : iterable of (int, int, int)
@@ -122,10 +150,13 @@ def link_delays(adjacency, default_periods, overrides):
 
     Returns
     -------
-    ndarray of int (n, n)
+    ndarray of int (E,)
+        In the order of the graph's links (:class:`~coopsat.network.edge_list.EdgeList`).
     """
-    a = np.asarray(adjacency, dtype=float)
-    c = np.full(a.shape, default_periods, dtype=np.int64)
+    e = edge_list.as_edge_list(graph)
+    c = np.full(e.n_links, default_periods, dtype=np.int64)
     for j, i, d in overrides:
-        c[i, j] = d
-    return np.where(a > 0, c, 0)
+        at = int(e.index_of(i, j))
+        if at >= 0:
+            c[at] = d
+    return c

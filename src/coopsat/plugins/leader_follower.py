@@ -67,14 +67,15 @@ def follower_hops(table, ctx):
     agents = [lead, *followers]
     out = []
     for place, routes in zip(ctx.graph_places, route_epochs(ctx.scenario.network.delivery, ctx)):
-        hops = routes.hops[np.ix_(followers, agents)]
+        pairs = np.array(followers)[:, None], np.array(agents)[None, :]  # (followers, agents): receiver, transmitter
+        hops = routes.heard.values_at(routes.hops, *pairs)
         deaf = [ctx.names[f] for f, h in zip(followers, hops[:, 0]) if h == 0]
         if deaf:
             raise DesignError(
                 f"{place}: {', '.join(deaf)} cannot hear the leader {ctx.names[lead]} "
                 "(give a link or a route, with network.delivery relay = true)"
             )
-        out.append((hops, routes.weight[np.ix_(followers, agents)]))
+        out.append((hops, routes.heard.weights_at(*pairs)))
     return out
 
 

@@ -120,26 +120,26 @@ def route_epochs(table, ctx):
     """
     import numpy as np
 
-    from coopsat.network import routing
+    from coopsat.network import edge_list, routing
 
     if table.kind == "ideal":
-        return [routing.direct_routes(a, np.zeros(a.shape, dtype=np.int64)) for a in ctx.adjacencies]
+        return [routing.direct_routes(g, np.zeros(g.n_links, dtype=np.int64)) for g in ctx.graphs]
     where = "network.delivery"
     index = {name: k for k, name in enumerate(ctx.names)}
     default = _periods(table.delay_s, ctx, f"{where}.delay_s")
     overrides = []
-    union = np.any([a > 0 for a in ctx.adjacencies], axis=0)
+    ever = edge_list.union(ctx.graphs)
     for k, (src, dst, d) in enumerate(table.link_delays):
         for end in (src, dst):
             if end not in index:
                 raise DesignError(f"{where}.link_delays[{k}]: unknown spacecraft '{end}' (known: {', '.join(ctx.names)})")
-        if not union[index[dst], index[src]]:
+        if ever.index_of(index[dst], index[src]) < 0:
             raise DesignError(f"{where}.link_delays[{k}]: there is no link {src} -> {dst} in any graph of the run")
         overrides.append((index[src], index[dst], _periods(d, ctx, f"{where}.link_delays[{k}] delay")))
     epochs = []
-    for place, a in zip(ctx.graph_places, ctx.adjacencies):
-        c = routing.link_delays(a, default, overrides)
-        routes = routing.relayed_routes(a, c, table.relay_weight) if table.relay else routing.direct_routes(a, c)
+    for place, graph in zip(ctx.graph_places, ctx.graphs):
+        c = routing.link_delays(graph, default, overrides)
+        routes = routing.relayed_routes(graph, c, table.relay_weight) if table.relay else routing.direct_routes(graph, c)
         if table.relay and epochs:
             lost = routing.lost_route(epochs[0], routes, ctx.names)
             if lost is not None:
@@ -171,8 +171,8 @@ def _build_delayed(table, ctx):
     where = "network.delivery"
     epochs = route_epochs(table, ctx)
     tau = random_delay_periods(table, ctx)
-    links = topology.links_for_schedule([r.weight for r in epochs])
-    pick = lambda m: np.stack([getattr(r, m)[links.dst, links.src] for r in epochs])  # noqa: E731
+    links = topology.links_for_schedule([r.heard for r in epochs])
+    pick = lambda m: np.stack([r.heard.values_at(getattr(r, m), links.dst, links.src) for r in epochs])  # noqa: E731
     hops, fixed = pick("hops"), pick("delay_periods")
     largest = int((fixed + hops * tau[1]).max(initial=0))
     if largest + 1 > MAX_BUFFER_PERIODS:

@@ -80,15 +80,15 @@ def circle_layout(n):
     return np.stack([np.cos(angle), np.sin(angle)], axis=-1) if n > 1 else np.zeros((n, 2))
 
 
-def epoch_links(adjacencies, routes, period_s):
+def epoch_links(graphs, routes, period_s):
     """Each graph's links with their state, hops and fixed delay.
 
     Parameters
     ----------
-    adjacencies : list of ndarray (n, n)
-        ``A[i, j] > 0``: i hears j directly, per graph.
+    graphs : list of EdgeList or ndarray (n, n)
+        The links of each graph (``A[i, j] > 0``: i hears j directly).
     routes : list of coopsat.network.routing.Routes
-        What the network model delivers in each graph (``[i, j]``: i hears j).
+        What the network model delivers in each graph.
     period_s : float
         Control period (delays are whole periods).
 
@@ -96,19 +96,21 @@ def epoch_links(adjacencies, routes, period_s):
     -------
     list of list of Link
     """
-    ever = np.any([a > 0 for a in adjacencies], axis=0)
+    from coopsat.network import edge_list
+
+    graphs = [edge_list.as_edge_list(g) for g in graphs]
+    ever = edge_list.union(graphs)
     epochs = []
-    for a, route in zip(adjacencies, routes):
-        links = []
-        for i, j in zip(*np.nonzero(ever | (route.hops > 0))):
-            if a[i, j] > 0:
-                state = UP
-            elif route.hops[i, j] > 1:
-                state = RELAYED
-            else:
-                state = LOST
-            links.append(Link(int(j), int(i), state, int(route.hops[i, j]), float(route.delay_periods[i, j] * period_s)))
-        epochs.append(links)
+    for graph, route in zip(graphs, routes):
+        pairs = edge_list.union([ever, route.heard])  # every link of the run, and what this epoch relays
+        up = graph.index_of(pairs.dst, pairs.src) >= 0
+        hops = route.heard.values_at(route.hops, pairs.dst, pairs.src)
+        delay_s = route.heard.values_at(route.delay_periods, pairs.dst, pairs.src) * period_s
+        state = np.where(up, UP, np.where(hops > 1, RELAYED, LOST))
+        epochs.append([
+            Link(j, i, s, h, d)
+            for j, i, s, h, d in zip(pairs.src.tolist(), pairs.dst.tolist(), state.tolist(), hops.tolist(), delay_s.tolist())
+        ])
     return epochs
 
 
@@ -121,7 +123,7 @@ def _routes(built):
     table = built.scenario.network.delivery
     if getattr(table, "kind", None) in ("ideal", "delayed"):
         return route_epochs(table, built.context)
-    return [direct_routes(a, np.zeros(a.shape, dtype=np.int64)) for a in built.adjacencies]
+    return [direct_routes(g, np.zeros(g.n_links, dtype=np.int64)) for g in built.graphs]
 
 
 def _flags(ds):
@@ -153,7 +155,7 @@ def build_network_view(built, ds):
         names=list(built.names),
         xy=circle_layout(len(built.names)),
         epoch_start_s=[float(t) for t in built.switch_times_s],
-        epochs=epoch_links(built.adjacencies, _routes(built), period_s),
+        epochs=epoch_links(built.graphs, _routes(built), period_s),
         tau_s=tau,
         dropout_probability=float(getattr(table, "dropout_probability", 0.0)),
         node_flags=_flags(ds),

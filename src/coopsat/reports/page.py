@@ -79,15 +79,17 @@ def series_json(series):
             charts.append({"name": s.name, "label": s.label, "unit": s.unit, "log": bool(s.log_scale), "t": packed(t),
                            "threshold": _finite(s.threshold), "traces": [{"name": s.name, "color": 0, "y": packed(v.values[::step])}]})
             continue
-        traces = []
-        for k, sc in enumerate(v["spacecraft"].values):
-            lines = v.isel(time=slice(None, None, step), spacecraft=k)
-            if lines.ndim == 1:
-                traces.append({"name": str(sc), "color": k, "y": packed(lines.values)})
-                continue
-            extra = lines.dims[1]
-            for c, (label, column) in enumerate(zip(lines[extra].values, lines.values.T)):
-                traces.append({"name": f"{sc} {label}", "color": k, "dash": c, "y": packed(column)})
+        # The decimated record read out of xarray once: one selection per spacecraft costs
+        # 0.2 ms, the page of a formation of 1e4 spacecraft 13 s.
+        v = v.transpose("time", "spacecraft", ...)
+        values = v.values[::step]  # (time, spacecraft) or (time, spacecraft, extra)
+        names = [str(sc) for sc in v["spacecraft"].values]
+        if values.ndim == 2:
+            traces = [{"name": sc, "color": k, "y": packed(values[:, k])} for k, sc in enumerate(names)]
+        else:
+            labels = [str(label) for label in v[v.dims[2]].values]
+            traces = [{"name": f"{sc} {label}", "color": k, "dash": c, "y": packed(values[:, k, c])}
+                      for k, sc in enumerate(names) for c, label in enumerate(labels)]
         charts.append({"name": s.name, "label": s.label, "unit": s.unit, "log": bool(s.log_scale), "t": packed(t),
                        "threshold": _finite(s.threshold), "traces": traces})
     return charts

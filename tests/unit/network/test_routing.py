@@ -7,15 +7,27 @@ path by brute force: fewest hops first, then the least summed delay.
 """
 
 import itertools
+from types import SimpleNamespace
 
 import networkx as nx
 import numpy as np
 import pytest
 
+from coopsat.network import edge_list
 from coopsat.network.routing import Routes, direct_routes, link_delays, lost_route, relayed_routes
 from coopsat.network.topology import chain_adjacency, ring_adjacency, star_adjacency
 
 RELAY = 0.5
+
+
+def _dense(routes):
+    """The routes' heard pairs as (n, n) matrices ``[i, j]`` (i hears j), 0 where not heard."""
+    assert isinstance(routes, Routes)
+    heard = routes.heard
+    assert np.all(routes.hops >= 1) and np.all(heard.weight > 0)  # only heard pairs are listed
+    weight, hops, delay = routes.matrices()
+    np.testing.assert_array_equal(hops[heard.dst, heard.src], routes.hops)
+    return SimpleNamespace(weight=weight, hops=hops, delay_periods=delay)
 
 
 def _digraph(a):
@@ -42,7 +54,7 @@ def _reference(a, c):
 
 
 def _check_against_reference(a, c, relay_weight=RELAY):
-    routes = relayed_routes(a, c, relay_weight)
+    routes = _dense(relayed_routes(a, c, relay_weight))
     hops, delay = _reference(a, c)
     np.testing.assert_array_equal(routes.hops, hops)
     np.testing.assert_array_equal(routes.delay_periods, delay)
@@ -64,14 +76,16 @@ def _check_against_reference(a, c, relay_weight=RELAY):
 def test_direct_routes_hear_only_the_links_one_hop_at_their_delay():
     a = np.array([[0.0, 2.0, 0.0], [0.0, 0.0, 0.0], [0.7, 1.0, 0.0]])  # 0 hears 1; 2 hears 0 and 1
     c = np.array([[9, 3, 9], [9, 9, 9], [4, 5, 9]])  # 9 where there is no link: must not leak
-    routes = direct_routes(a, c)
-    assert isinstance(routes, Routes)
+    routes = _dense(direct_routes(a, c))
     np.testing.assert_array_equal(routes.weight, a)
     np.testing.assert_array_equal(routes.hops, [[0, 1, 0], [0, 0, 0], [1, 1, 0]])
     np.testing.assert_array_equal(routes.delay_periods, [[0, 3, 0], [0, 0, 0], [4, 5, 0]])
     assert routes.hops.dtype.kind == "i" and routes.delay_periods.dtype.kind == "i"
-    a[0, 1] = 99.0
-    assert routes.weight[0, 1] == 2.0  # a copy, not a view of the caller's array
+    graph = edge_list.from_adjacency(a)
+    kept = direct_routes(graph, link_delays(graph, 4, []))
+    graph.weight[:] = 99.0
+    assert kept.heard.weight.tolist() == [2.0, 0.7, 1.0]  # a copy, not a view of the caller's links
+    assert kept.delay_periods.tolist() == [4, 4, 4]
 
 
 # --------------------------------------------------------------------------------------------
@@ -156,7 +170,7 @@ def test_among_equally_short_routes_the_least_delay_wins():
     routes = _check_against_reference(a, c)
     assert (routes.hops[3, 0], routes.delay_periods[3, 0]) == (2, 8)
     c[3, 2] = 10  # now the route through 1 is the cheaper one
-    assert relayed_routes(a, c, RELAY).delay_periods[3, 0] == 10
+    assert _dense(relayed_routes(a, c, RELAY)).delay_periods[3, 0] == 10
 
 
 def test_an_unreachable_spacecraft_is_heard_by_nobody_and_hears_its_sources():
@@ -187,12 +201,15 @@ def test_random_digraphs_match_the_brute_force_reference(seed):
 
 def test_link_delays_apply_the_default_and_one_way_overrides_on_links_only():
     a = ring_adjacency(4)  # undirected: both directions exist
-    c = link_delays(a, 2, [(0, 1, 7), (2, 0, 5)])  # (j, i, d): link j → i; 2 → 0 is no link
+    per_link = link_delays(a, 2, [(0, 1, 7), (2, 0, 5)])  # (j, i, d): link j → i; 2 → 0 is no link
+    assert per_link.dtype.kind == "i" and per_link.shape == (8,)
+    rows, cols = np.nonzero(a)  # the links in the order of the graph's edge list
+    c = np.zeros((4, 4), dtype=int)
+    c[rows, cols] = per_link
     expected = np.where(a > 0, 2, 0)
     expected[1, 0] = 7  # 0 → 1 only: 1 → 0 keeps the default
     np.testing.assert_array_equal(c, expected)
     assert c[0, 1] == 2 and c[0, 2] == 0
-    assert c.dtype.kind == "i"
 
 
 def test_lost_route_names_the_receiver_then_the_transmitter():

@@ -40,6 +40,15 @@ def test_series_are_decimated_by_a_whole_stride_and_split_per_spacecraft_and_com
     assert second["log"] and second["threshold"] is None and len(second["traces"]) == 1
 
 
+def test_a_series_per_spacecraft_in_any_dimension_order_is_one_trace_each():
+    values = np.arange(2 * 7, dtype=float).reshape(2, 7)  # (spacecraft, time)
+    angle = xr.DataArray(values, dims=("spacecraft", "time"), coords={"time": np.arange(7.0), "spacecraft": ["a", "b"]})
+    (chart,) = page.series_json([Series("angle_deg", "angle", "deg", angle)])
+    assert [(tr["name"], tr["color"]) for tr in chart["traces"]] == [("a", 0), ("b", 1)]
+    for k, tr in enumerate(chart["traces"]):
+        np.testing.assert_array_equal(_unpacked(tr["y"]), values[k].astype(np.float32))
+
+
 class _Markup(HTMLParser):
     """Every attribute value of the page's elements, and the text of its scripts."""
 

@@ -400,14 +400,28 @@ def _close(client):
     traces and caches), and the interpreter's collections at exit walk them all: seconds under
     load, past the 4 s after which the nanny kills the process and warns ("Worker process still
     alive after 4.0 seconds, killing"). Frozen objects (:func:`gc.freeze`) are skipped by those
-    collections; memory is given back when the process ends either way."""
+    collections; memory is given back when the process ends either way.
+
+    Closing is ours, so what the workers and their nannies log while it happens (a batch in
+    flight after a stop cancelled, a heartbeat to a scheduler already gone, with its traceback)
+    is not news: their ``distributed`` loggers are turned down to CRITICAL first."""
     cluster = client.cluster
     if cluster is not None:
         with contextlib.suppress(Exception):  # a worker that is already gone needs no help
             client.run(gc.freeze)
+            client.run(_quiet_distributed_logs)
+            client.run(_quiet_distributed_logs, nanny=True)
     client.close()
     if cluster is not None:
         cluster.close()
+
+
+def _quiet_distributed_logs():
+    """Only CRITICAL records from dask.distributed in this process (run on every worker and
+    nanny before the driver closes them)."""
+    import logging
+
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
 
 
 def _peak_rss_mb():

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from coopsat.workflows.pipeline import Result, analyse, prepare, run_and_save
+from coopsat.workflows.pipeline import Result, prepare, run_and_save
 from coopsat.workflows.pipeline import run as _run_one
 from coopsat.scenarios.document import Scenario
 
@@ -308,7 +308,7 @@ def run_batch(scenarios: Sequence[ScenarioLike], *, progress: bool = False, nati
     import time
 
     from coopsat.scenarios.applied import changed_paths
-    from coopsat.workflows.sweep import build_runs, group_runs, simulate_runs
+    from coopsat.workflows.sweep import analysed_runs, build_runs, group_runs
 
     t0 = time.perf_counter()
     docs = [_document(s) for s in scenarios]
@@ -316,11 +316,8 @@ def run_batch(scenarios: Sequence[ScenarioLike], *, progress: bool = False, nati
     paths = list(dict.fromkeys(p for raw in raws[1:] for p in changed_paths(raws[0], raw)))
     builds, stacked, note = build_runs([d.model for d in docs], paths)
     build_s = time.perf_counter() - t0
-    datasets, compile_s, run_s = simulate_runs(builds, progress, native=native, stacked=stacked)
-    results = []
-    for doc, built, ds in zip(docs, builds, datasets):
-        metrics, _ = analyse(built, ds, compare=False)
-        results.append(Result.from_built(doc, built, ds, metrics))
+    metrics, datasets, compile_s, run_s = analysed_runs(builds, progress, native=native, stacked=stacked)
+    results = [Result.from_built(doc, built, ds, m) for doc, built, ds, m in zip(docs, builds, datasets, metrics)]
     return Batch(results, compile_s, run_s, 1 if stacked is not None else len(group_runs(builds)), build_s, note)
 
 

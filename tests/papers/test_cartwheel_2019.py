@@ -9,7 +9,8 @@ import pytest
 
 from coopsat.design.cw import cartwheel_state, deputy_phases
 from coopsat.geometry.frames import eci_to_lvlh
-from coopsat.workflows.pipeline import analyse, prepare, simulate_built
+from coopsat.workflows.analyse import analyse
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import ScenarioError, load_scenario
 
 DEPUTIES = ("dep1", "dep2", "dep3")

@@ -8,7 +8,8 @@ variants must do what law (3)/(4) is designed for, within what the actuator allo
 import numpy as np
 import pytest
 
-from coopsat.workflows.pipeline import analyse, prepare, simulate_built
+from coopsat.workflows.analyse import analyse
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import load_scenario
 
 pytestmark = pytest.mark.slow

@@ -17,7 +17,8 @@ import pytest
 from coopsat.astro.constants import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
 from coopsat.cli import EXIT_BAD_INPUT, main
 from coopsat.workflows.pair import PairError, run_pair
-from coopsat.workflows.pipeline import analyse, prepare, simulate_built
+from coopsat.workflows.analyse import analyse
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.scenarios.load import ScenarioError
 from coopsat.scenarios.load import bundled_text, load_scenario
 

@@ -15,8 +15,9 @@ EXACT_PAIRS_MAX_N = 64
 (the pairwise maximum is then bounded by twice the reported value)."""
 
 
-def quat_angle_between_deg(q_a, q_b):
-    """Rotation angle between attitudes, deg, in [0, 180]; shapes (..., 4) -> (...).
+def quat_angle_between_deg(q_a, q_b, axis=-1):
+    """Rotation angle between attitudes, deg, in [0, 180]; shapes (..., 4) -> (...) (``axis``:
+    the component axis).
 
     Notes
     -----
@@ -24,19 +25,33 @@ def quat_angle_between_deg(q_a, q_b):
     attitude), formed from its vector part rather than ``acos`` of a dot product, which loses
     everything below about 1e-6 deg to rounding.
     """
-    return np.degrees(np.asarray(quat_angle(quat_error(q_a, q_b))))
+    return np.degrees(np.asarray(quat_angle(quat_error(q_a, q_b, axis), axis)))
+
+
+PAIRWISE_BLOCK_SAMPLES = 4096
+"""Samples compared per block in :func:`_pairwise_max`: a block's temporaries stay in the
+CPU's cache (a batch of 100 runs whole is 2.5× slower than in blocks)."""
 
 
 def _pairwise_max(x, distance):
-    """Largest ``distance`` over pairs of spacecraft at each sample; x (T, n, k) -> (T,)."""
-    n = x.shape[1]
+    """Largest ``distance(a, b, axis)`` over pairs of spacecraft at each sample; x (..., n, k) ->
+    (...) (the leading axes: time, or run and time).
+
+    The samples go in blocks of :data:`PAIRWISE_BLOCK_SAMPLES`, each block's pairs gathered
+    component-major, (k, samples, pairs), so that each component is one contiguous array: the
+    quaternion algebra then stacks whole rows, not strided elements."""
+    n, k = x.shape[-2:]
     if n < 2:
-        return np.zeros(x.shape[0])
+        return np.zeros(x.shape[:-2])
     if n <= EXACT_PAIRS_MAX_N:
         i, j = np.triu_indices(n, k=1)
     else:
         i, j = np.arange(1, n), np.zeros(n - 1, dtype=int)
-    return distance(x[:, i], x[:, j]).max(axis=1)
+    flat = np.ascontiguousarray(np.moveaxis(np.reshape(x, (-1, n, k)), -1, 0))  # (k, samples, n)
+    step = PAIRWISE_BLOCK_SAMPLES
+    blocks = [distance(b[..., i], b[..., j], 0).max(axis=-1) for b in (flat[:, s:s + step] for s in
+                                                                      range(0, flat.shape[1], step))]
+    return np.concatenate(blocks).reshape(x.shape[:-2])
 
 
 def pairwise_attitude_error_deg(q):
@@ -44,11 +59,11 @@ def pairwise_attitude_error_deg(q):
 
     Parameters
     ----------
-    q : ndarray, shape (T, n, 4)
+    q : ndarray, shape (..., T, n, 4)
 
     Returns
     -------
-    ndarray, shape (T,)
+    ndarray, shape (..., T)
     """
     return _pairwise_max(q, quat_angle_between_deg)
 
@@ -58,13 +73,39 @@ def pairwise_rate_difference_rad_s(omega):
 
     Parameters
     ----------
-    omega : ndarray, shape (T, n, 3)
+    omega : ndarray, shape (..., T, n, 3)
 
     Returns
     -------
-    ndarray, shape (T,)
+    ndarray, shape (..., T)
     """
-    return _pairwise_max(omega, lambda a, b: np.linalg.norm(a - b, axis=-1))
+    return _pairwise_max(omega, lambda a, b, axis: np.linalg.norm(a - b, axis=axis))
+
+
+def settle_times_s(t_s, ok, hold_s=0.0, axis=0):
+    """First sample time after which ``ok`` holds at every later sample, NaN where never:
+    :func:`settle_time_s` over every other axis at once (runs of a batch, spacecraft).
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (T,)
+    ok : ndarray of bool, T samples along ``axis``
+    hold_s : float or ndarray
+        As :func:`settle_time_s`; an array broadcasts against the result (one per run).
+    axis : int
+        The time axis of ``ok``.
+
+    Returns
+    -------
+    ndarray of float
+        ``ok``'s shape without ``axis``.
+    """
+    ok = np.moveaxis(np.asarray(ok, dtype=bool), axis, -1)
+    last = ok.shape[-1] - 1
+    # The sample after the last failing one (0 when none fails).
+    first_good = np.where(ok.all(axis=-1), 0, last + 1 - np.argmax(~ok[..., ::-1], axis=-1))
+    settled = t_s[np.minimum(first_good, last)]
+    return np.where(ok[..., -1] & (t_s[-1] - settled >= hold_s), settled, np.nan)
 
 
 def settle_time_s(t_s, ok, hold_s=0.0):
@@ -83,14 +124,15 @@ def settle_time_s(t_s, ok, hold_s=0.0):
     -------
     float or None, or list of those
     """
-    ok = np.asarray(ok, dtype=bool)
-    if ok.ndim == 2:
-        return [settle_time_s(t_s, ok[:, k], hold_s) for k in range(ok.shape[1])]
-    if not ok[-1]:
-        return None
-    bad = np.flatnonzero(~ok)
-    settled = float(t_s[0] if bad.size == 0 else t_s[bad[-1] + 1])
-    return settled if t_s[-1] - settled >= hold_s else None
+    times = settle_times_s(t_s, ok, hold_s)
+    return none_for_nan(times) if times.ndim == 0 else [none_for_nan(v) for v in times]
+
+
+def none_for_nan(value):
+    """A metric's number as JSON has it: a Python float, None for NaN (a time never reached;
+    no metric is NaN otherwise, metrics.json refuses it)."""
+    value = float(value)
+    return None if np.isnan(value) else value
 
 
 def arrival_time_s(t_s, ok, hold_s=0.0):
@@ -123,21 +165,24 @@ def inertial_angular_momentum_nms(q, omega, inertia_kgm2, h_wheels_b_nms=0.0):
 
     Parameters
     ----------
-    q : ndarray, shape (T, n, 4)
-    omega : ndarray, shape (T, n, 3)
-    inertia_kgm2 : ndarray, shape (n, 3, 3)
-    h_wheels_b_nms : ndarray, shape (n, 3) or (T, n, 3), optional
+    q : ndarray, shape (..., T, n, 4)
+    omega : ndarray, shape (..., T, n, 3)
+    inertia_kgm2 : ndarray, shape (..., n, 3, 3)
+    h_wheels_b_nms : ndarray, shape (..., n, 3) or (..., T, n, 3), optional
         Wheel momentum relative to each body, body components.
 
     Returns
     -------
-    ndarray, shape (T, 3)
+    ndarray, shape (..., T, 3)
         ``Σ_i C(q_i) (I_i ω_i + h_w,i)``. Law (3) pushes on each spacecraft in its own body axes, so it
         does not conserve this exactly, but near agreement its torques nearly cancel: a
         formation that starts with momentum ends spinning together, not at rest.
     """
-    h_b = np.einsum("nij,tnj->tni", inertia_kgm2, omega) + h_wheels_b_nms
-    return np.asarray(quat_rotate(q, h_b)).sum(axis=1)
+    h_w = np.asarray(h_wheels_b_nms, dtype=float)
+    if h_w.ndim == np.ndim(omega) - 1:  # constant over time
+        h_w = np.expand_dims(h_w, -3)
+    h_b = np.einsum("...nij,...tnj->...tni", inertia_kgm2, omega) + h_w
+    return np.asarray(quat_rotate(q, h_b)).sum(axis=-2)
 
 
 TORQUE_UNITS = "N m"
@@ -198,21 +243,58 @@ def run_metrics(ds, names, inertia_kgm2, h_wheels_b_nms=0.0, attitude=True):
         (rigid-body attitude model), when attitude is simulated; per spacecraft every actuator
         counter the run recorded (impulse, thruster on-time and firings).
     """
+    h_w = np.expand_dims(np.asarray(h_wheels_b_nms, dtype=float), 0)
+    return run_rows(batch_run_metrics(ds.expand_dims("run"), names, np.expand_dims(inertia_kgm2, 0), h_w, attitude), 1)[0]
+
+
+def batch_run_metrics(ds, names, inertia_kgm2, h_wheels_b_nms=0.0, attitude=True):
+    """:func:`run_metrics` of every run of a batch at once: each metric an array over the runs.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The batch's record, dimension ``run`` first (:func:`coopsat.sim.recorder.to_dataset`
+        with ``batched=True``).
+    names : sequence of str
+        Spacecraft names (the same in every run of a batch).
+    inertia_kgm2 : ndarray, shape (R, n, 3, 3)
+    h_wheels_b_nms : ndarray, shape (R, n, 3), optional
+    attitude : bool
+        Whether the runs simulate attitude motion (the same in all of them).
+
+    Returns
+    -------
+    dict of str -> ndarray, shape (R,)
+        Integer counters as integers; :func:`run_rows` makes one dict per run.
+
+    Notes
+    -----
+    ``h_wheels_b_nms`` is read only where the record has no ``h_wheels`` series.
+    """
     omega = ds["omega"].values
-    m = {"final_rate_max_rad_s": float(np.linalg.norm(omega[-1], axis=-1).max())} if attitude else {}
+    m = {"final_rate_max_rad_s": np.linalg.norm(omega[:, -1], axis=-1).max(axis=-1)} if attitude else {}
     if attitude and "q" in ds:  # the rigid-body attitude model (the small-angle model has no inertial attitude)
-        h_w = ds["h_wheels"].values if "h_wheels" in ds else h_wheels_b_nms
-        h = inertial_angular_momentum_nms(ds["q"].values, omega, inertia_kgm2, h_w)
-        m["angular_momentum_initial_nms"] = float(np.linalg.norm(h[0]))
-        m["angular_momentum_final_nms"] = float(np.linalg.norm(h[-1]))
-    if "impulse" in ds:
-        impulse = ds["impulse"].values[-1].sum(axis=-1)
-        for name, value in zip(names, impulse):
-            m[f"{name}_impulse_nms"] = float(value)
-    if "thruster_on_time" in ds:
-        on = ds["thruster_on_time"].values[-1].sum(axis=-1)
-        for name, value in zip(names, on):
-            m[f"{name}_on_time_s"] = float(value)
-        for name, value in zip(names, ds["thruster_firings"].values[-1].sum(axis=-1)):
-            m[f"{name}_firings"] = int(value)
+        ends = [0, -1]  # only the first and last samples are reported
+        h_w = ds["h_wheels"].values[:, ends] if "h_wheels" in ds else h_wheels_b_nms
+        h = inertial_angular_momentum_nms(ds["q"].values[:, ends], omega[:, ends], inertia_kgm2, h_w)
+        m["angular_momentum_initial_nms"] = np.linalg.norm(h[:, 0], axis=-1)
+        m["angular_momentum_final_nms"] = np.linalg.norm(h[:, -1], axis=-1)
+    counters = [("impulse", "impulse_nms"), ("thruster_on_time", "on_time_s"), ("thruster_firings", "firings")]
+    for var, unit in counters:
+        if var in ds and (var != "thruster_firings" or "thruster_on_time" in ds):
+            total = ds[var].values[:, -1].sum(axis=-1)  # (R, n)
+            m.update({f"{name}_{unit}": total[:, i] for i, name in enumerate(names)})
     return m
+
+
+def run_rows(metrics, runs):
+    """One dict per run of a batch's metrics (``{name: array (runs,)}``): integers as ``int``,
+    other numbers as ``float``, NaN (a time never reached) as None."""
+    columns = [_column(np.asarray(v)) for v in metrics.values()]
+    return [dict(zip(metrics, row)) for row in zip(*columns)] if columns else [{} for _ in range(runs)]
+
+
+def _column(values):
+    if values.dtype.kind in "iu":
+        return values.tolist()
+    return [None if v != v else v for v in values.astype(float).tolist()]  # v != v: NaN

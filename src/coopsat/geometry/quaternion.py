@@ -207,14 +207,16 @@ def dcm_to_quat(c):
     return quat_positive(quat_normalize(q))
 
 
-def quat_angle(q):
-    """Principal rotation angle in [0, π] rad of a unit quaternion, shape (..., 4) -> (...).
+def quat_angle(q, axis=-1):
+    """Principal rotation angle in [0, π] rad of a unit quaternion, shape (..., 4) -> (...)
+    (``axis``: the component axis, removed).
 
     Notes
     -----
     ``2 atan2(|vec q|, |q0|)`` is accurate near 0 and π, unlike ``2 acos(q0)``.
     """
     xp = array_namespace(q)
+    q = xp.moveaxis(q, axis, -1)
     return 2.0 * xp.arctan2(xp.linalg.norm(q[..., 1:], axis=-1), xp.abs(q[..., 0]))
 
 

@@ -47,11 +47,14 @@ class Scenario:
     def __init__(self, raw: Mapping[str, Any], name: str | None = None):
         """Use :meth:`load`, :meth:`from_dict` or :meth:`from_toml`; ``raw`` is taken as given
         (``extends`` resolved) and validated."""
-        raw = copy.deepcopy(dict(raw))
+        self._adopt(copy.deepcopy(dict(raw)), name)
+        self.model  # noqa: B018  (validate now: a bad scenario fails where it is made)
+
+    def _adopt(self, raw, name):
+        """Take ``raw`` (this scenario's own copy) and its name."""
         self._name = str(raw.get("name") or name or "scenario")
         raw.setdefault("name", self._name)
         self._raw = raw
-        self.model  # noqa: B018  (validate now: a bad scenario fails where it is made)
 
     # --- construction -------------------------------------------------------------------------
 
@@ -114,7 +117,32 @@ class Scenario:
         raw = copy.deepcopy(self._raw)
         for path, value in changes.items():
             set_path(raw, path, copy.deepcopy(value))
-        return type(self)(raw, self._name)
+        out = type(self).__new__(type(self))
+        out._adopt(raw, self._name)
+        model = self._applied_model(changes)
+        if model is not None:
+            out.__dict__["model"] = model  # the cached_property's value
+        out.model  # noqa: B018  (validate now: a bad scenario fails where it is made)
+        return out
+
+    def _applied_model(self, changes):
+        """This scenario's model with ``changes`` set field by field
+        (:func:`coopsat.scenarios.applied.with_value`), when every changed path is one that
+        no validator of another field reads (the seed, initial attitudes, rates and wheel
+        momenta: :data:`~coopsat.scenarios.applied.APPLIED_FIELDS`), so that ``with_seed`` on
+        a batch of runs does not validate the whole scenario each time; else None (validated
+        whole). A value refused here is validated whole too, for the usual message."""
+        from coopsat.scenarios.applied import applicable, with_value
+
+        if "model" not in self.__dict__ or applicable(list(changes)) is not None:
+            return None
+        model = self.model
+        try:
+            for path, value in changes.items():
+                model = with_value(model, path, value)
+        except ScenarioError:
+            return None
+        return model
 
     def with_seed(self, seed: int) -> Scenario:
         """The same scenario with another seed (every random draw of the run follows from it)."""

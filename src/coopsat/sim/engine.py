@@ -236,12 +236,17 @@ def _assemble(system, chunks, last, n_records, batch):
     may run past them: its extra rows are padding), then the final sample; per-spacecraft
     arrays back to (spacecraft, component); a batch's padding runs dropped."""
     axis = 0 if batch is None else 1
+    # The chunks' rows cut to n_records as views (the last chunk may run past them), so that
+    # each sample is copied once.
+    keep, start = [], 0
+    for ch in chunks:
+        rows = min(next(iter(ch.values())).shape[axis], n_records - start)
+        keep.append((ch, rows))
+        start += rows
+    cut = (slice(None),) * axis
     samples = {
-        k: np.concatenate(
-            [np.take(np.concatenate([ch[k] for ch in chunks], axis=axis), np.arange(n_records), axis=axis),
-             np.expand_dims(last[k], axis)],
-            axis=axis,
-        )
+        k: np.concatenate([ch[k][cut + (slice(0, rows),)] for ch, rows in keep if rows > 0]
+                          + [np.expand_dims(last[k], axis)], axis=axis)
         for k in last
     }
     specs = output_specs(system)

@@ -48,7 +48,7 @@ def sweep(ref, scales_n, coordinates, progress=False):
         ``histories``: per run, ``t_s`` and the cumulative fuel against time (``fuel_l1_ns``
         (T, 3) per axis, ``fuel_l2_ns`` (T,)).
     """
-    from coopsat.workflows.pipeline import analyse
+    from coopsat.workflows.analyse import analyse
     from coopsat.scenarios.load import load_scenario
     from coopsat.workflows.sweep import run_batch
 

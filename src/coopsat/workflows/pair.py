@@ -25,7 +25,7 @@ from coopsat.core.errors import InputError
 from coopsat.analysis.papers import member, paper_modules
 from coopsat.analysis.series import run_series
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
-from coopsat.workflows.pipeline import analyse
+from coopsat.workflows.analyse import analyse
 from coopsat.scenarios.load import load_scenario
 from coopsat.workflows.sweep import run_batch
 

@@ -16,12 +16,12 @@ import numpy as np
 import coopsat
 from coopsat.core.errors import InputError
 from coopsat.workflows import interrupt
-from coopsat.analysis.compare import compare_published, comparison_markdown
-from coopsat.analysis.metrics import attitude_moves, run_metrics
-from coopsat.analysis.papers import explainers, member, paper_metrics, paper_modules, paper_series, source_of
+from coopsat.analysis.compare import comparison_markdown
+from coopsat.analysis.papers import member, paper_modules, paper_series, source_of
 from coopsat.analysis.stages import StageError, guarded
+from coopsat.workflows.analyse import analyse
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready, read_result, write_netcdf
-from coopsat.scenarios.build import DesignWarning, build, inertia_matrix
+from coopsat.scenarios.build import DesignWarning, build
 from coopsat.scenarios.run_length import check_run_length
 from coopsat.scenarios.load import ScenarioError, resolved_toml
 
@@ -231,27 +231,6 @@ def record_dataset(built, out, failures=None, **attrs):
     for check in built.checks.values():
         attrs[f"check_{check.name}"] = check.note
     return paper_series(to_dataset(out, built.names, attrs, output_specs(built.system)), built, failures)
-
-
-def analyse(built, ds, compare=True, failures=None):
-    """Metrics and comparison rows (empty unless ``compare``) of a finished run.
-
-    ``failures``: a list to which each stage that raises is appended as a
-    :class:`~coopsat.analysis.stages.StageFailure` (its numbers left out); None: it raises.
-    """
-    sc = built.scenario
-    inertia = np.stack([inertia_matrix(s.inertia_kgm2) for s in sc.spacecraft])
-    h_wheels = np.array([s.h_wheels_b_nms for s in sc.spacecraft], dtype=float)
-    # From the scenario's initial state, not the record's: metric_names' stand-in record is zeros.
-    attitude = attitude_moves(ds, [s.omega_b_rad_s for s in sc.spacecraft], [s.angle_rad for s in sc.spacecraft])
-    common = guarded(failures, "metrics", "coopsat", {}, run_metrics, ds, built.names, inertia, h_wheels, attitude)
-    metrics = {**built.design_metrics, **common, **paper_metrics(ds, built, failures)}
-    if not compare:
-        return metrics, []
-    note = "; ".join(built.warnings) or None
-    rows = guarded(failures, "comparison", "coopsat", [], compare_published, sc.published, metrics, note,
-                   sc.sim.t_final_s, explainers(built, failures))
-    return metrics, rows
 
 
 RUN_MARKER = "run.json"

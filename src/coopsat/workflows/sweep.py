@@ -19,9 +19,10 @@ import numpy as np
 
 from coopsat.core.errors import InputError
 from coopsat.workflows import interrupt
-from coopsat.analysis.papers import paper_series
+from coopsat.analysis.papers import member, paper_modules, paper_series
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
-from coopsat.workflows.pipeline import analyse, metric_names, prepare
+from coopsat.workflows.analyse import analyse, analyse_batch
+from coopsat.workflows.pipeline import metric_names, prepare
 from coopsat.scenarios.load import clip_echo, load_scenario, parse_value
 
 MARKER = "sweep.json"
@@ -220,7 +221,7 @@ def prepare_runs(ref, override_lists):
     return [prepare(load_scenario(ref, overrides), check_published=False) for overrides in override_lists]
 
 
-def simulate_runs(builds, progress=False, every_core=True, bucket=None, native=None, stacked=None):
+def simulate_batches(builds, progress=False, every_core=True, bucket=None, native=None, stacked=None):
     """Simulate built runs, one vmapped batch per group of :func:`group_runs`.
 
     ``every_core``: share each batch among the CPU devices (:func:`coopsat.sim.engine.simulate`);
@@ -233,20 +234,19 @@ def simulate_runs(builds, progress=False, every_core=True, bucket=None, native=N
 
     Returns
     -------
-    (datasets, compile_s, run_s)
-        One dataset per build, in order (attributes ``scenario_name`` and ``seed``), and the
-        wall time compiling and running all batches, s.
+    (batches, compile_s, run_s)
+        ``batches``: per group, ``(run indices into builds, its batched RunOutput)``; the wall
+        time compiling and running all of them, s.
     """
-    from coopsat.sim.engine import output_specs, simulate
-    from coopsat.sim.recorder import to_datasets
+    from coopsat.sim.engine import simulate
     from coopsat.sim.system import stack_systems
 
     if stacked is None:
-        batches = [(group, stack_systems([builds[k].system for k in group])) for group in group_runs(builds)]
+        groups = [(group, stack_systems([builds[k].system for k in group])) for group in group_runs(builds)]
     else:
-        batches = [(list(range(len(builds))), stacked)]
-    datasets, compile_s, run_s = [None] * len(builds), 0.0, 0.0
-    for group, system in batches:
+        groups = [(list(range(len(builds))), stacked)]
+    batches, compile_s, run_s = [], 0.0, 0.0
+    for group, system in groups:
         first = builds[group[0]]
         out = simulate(
             system, first.n_records, first.record_interval_s,
@@ -255,11 +255,77 @@ def simulate_runs(builds, progress=False, every_core=True, bucket=None, native=N
         )
         compile_s += out.compile_s
         run_s += out.run_s
-        attrs = [{"scenario_name": builds[k].scenario.name, "seed": builds[k].scenario.seed} for k in group]
-        for k, ds in zip(group, to_datasets(out, first.names, attrs, output_specs(first.system))):
-            datasets[k] = paper_series(ds, builds[k])
+        batches.append((group, out))
         interrupt.check()
+    return batches, compile_s, run_s
+
+
+def run_datasets(builds, out):
+    """One dataset per run of a batch (``builds``: its runs' builds, ``out``: its batched
+    RunOutput), what ``coopsat run`` records: attributes ``scenario_name`` and ``seed``, the
+    paper modules' derived series added."""
+    from coopsat.sim.engine import output_specs
+    from coopsat.sim.recorder import to_datasets
+
+    first = builds[0]
+    attrs = [{"scenario_name": b.scenario.name, "seed": b.scenario.seed} for b in builds]
+    return [paper_series(ds, b) for b, ds in zip(builds, to_datasets(out, first.names, attrs, output_specs(first.system)))]
+
+
+def batch_record(builds, out):
+    """A batch's record as one dataset, dimension ``run`` first (its ``seed`` a coordinate), or
+    None where a paper module of the runs derives series: those are made run by run, and the
+    metrics may read them."""
+    from coopsat.sim.engine import output_specs
+    from coopsat.sim.recorder import to_dataset
+
+    first = builds[0]
+    if any(member(m, "series") is not None for m in paper_modules(first)):
+        return None
+    ds = to_dataset(out, first.names, {"scenario_name": first.scenario.name}, output_specs(first.system), batched=True)
+    return ds.assign_coords(seed=("run", [b.scenario.seed for b in builds]))
+
+
+def simulate_runs(builds, progress=False, every_core=True, bucket=None, native=None, stacked=None):
+    """Simulate built runs (:func:`simulate_batches`), one dataset per run (:func:`run_datasets`).
+
+    Returns
+    -------
+    (datasets, compile_s, run_s)
+        One dataset per build, in order, and the wall time compiling and running all batches, s.
+    """
+    batches, compile_s, run_s = simulate_batches(builds, progress, every_core, bucket, native, stacked)
+    datasets = [None] * len(builds)
+    for group, out in batches:
+        for k, ds in zip(group, run_datasets([builds[k] for k in group], out)):
+            datasets[k] = ds
     return datasets, compile_s, run_s
+
+
+def analysed_runs(builds, progress=False, datasets=True, **options):
+    """Simulate built runs (:func:`simulate_batches`, ``options`` its own) and compute each
+    one's metrics as ``coopsat run`` does (no comparison), a batch's at once where its paper
+    modules allow (:func:`~coopsat.workflows.analyse.analyse_batch`).
+
+    ``datasets``: also return each run's dataset (:func:`run_datasets`); False makes them only
+    where the metrics need them.
+
+    Returns
+    -------
+    (metrics, datasets, compile_s, run_s)
+        Per build, in order: its metrics (dict) and its dataset (None where not made).
+    """
+    batches, compile_s, run_s = simulate_batches(builds, progress, **options)
+    metrics, records = [None] * len(builds), [None] * len(builds)
+    for group, out in batches:
+        blds = [builds[k] for k in group]
+        record = batch_record(blds, out)
+        dss = run_datasets(blds, out) if datasets or record is None else [None] * len(blds)
+        values = (analyse_batch(blds, record) if record is not None else
+                  [analyse(b, ds, compare=False)[0] for b, ds in zip(blds, dss)])
+        for k, m, ds in zip(group, values, dss):
+            metrics[k], records[k] = m, ds
+    return metrics, records, compile_s, run_s
 
 
 def run_batch(ref, override_lists, progress=False):
@@ -389,10 +455,9 @@ def run_sweep(ref, varies, n_seeds=1, metrics=None, overrides=(), out_dir=None, 
     known = set().union(*(metric_names(builds[g[0]]) for g in groups))
     _check_names(metrics, plots, known, points)
     interrupt.check()
-    datasets, compile_s, run_s = simulate_runs(builds, progress)
+    all_values, _, compile_s, run_s = analysed_runs(builds, progress, datasets=False)
     runs = []
-    for k, (built, ds) in enumerate(zip(builds, datasets)):
-        values, _ = analyse(built, ds, compare=False)
+    for k, (built, values) in enumerate(zip(builds, all_values)):
         runs.append({
             **points[k // n_seeds],
             "seed": built.scenario.seed,

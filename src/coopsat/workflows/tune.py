@@ -32,7 +32,8 @@ import numpy as np
 from coopsat.analysis.surrogates import surrogates
 from coopsat.workflows import interrupt
 from coopsat.workflows.folders import atomic_folder, check_folder, json_ready
-from coopsat.workflows.pipeline import analyse, prepare, simulate_built
+from coopsat.workflows.analyse import analyse
+from coopsat.workflows.pipeline import prepare, simulate_built
 from coopsat.workflows.tune_minimise import minimise
 from coopsat.workflows.tune_problem import (  # noqa: F401  (Param, with_params: public here too)
     Param,

@@ -343,11 +343,7 @@ def test_bundled_campaign_runs_two_runs(name, tmp_path):
     horizon = SHORT_HORIZON_S[campaign.scenario]
     record = tomllib.loads(resolved_toml(load_scenario(ref, campaign.overrides)))["sim"]["record_interval_s"]
     assert horizon / record == round(horizon / record)
-    raw = tomllib.loads(bundled_campaign(name).read_text())
-    raw["runs"] = 2
-    raw["overrides"] = [*raw.get("overrides", []), f"sim.t_final_s={horizon}"]
-    path = tmp_path / f"{name}.toml"
-    path.write_text(tomli_w.dumps(raw))
+    path = _two_runs(name, tmp_path, horizon)
     rows = run_batch_rows(path, [0, 1])
     assert [r["run_id"] for r in rows] == [0, 1]
     for r in rows:
@@ -357,6 +353,49 @@ def test_bundled_campaign_runs_two_runs(name, tmp_path):
             assert r["reason"] == ""
             assert any(isinstance(v, float) and math.isfinite(v) for k, v in r.items() if k not in ("run_id", "seed"))
     assert all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
+
+
+def _two_runs(name, tmp_path, horizon_s):
+    """The bundled campaign ``name`` cut to two runs of ``horizon_s``, as a file."""
+    raw = tomllib.loads(bundled_campaign(name).read_text())
+    raw["runs"] = 2
+    raw["overrides"] = [*raw.get("overrides", []), f"sim.t_final_s={horizon_s}"]
+    path = tmp_path / f"{name}.toml"
+    path.write_text(tomli_w.dumps(raw))
+    return path
+
+
+LONGER_HORIZON_S = {"consensus-sync-a-stable": 60.0, "delay-designed": 20.0, "deepspace-square-to-line-lqr": 3000.0}
+"""Long enough for settle times and final errors to mean something, short enough for the quick suite."""
+
+
+@pytest.mark.parametrize("name", [n for n in bundled_campaign_names() if n.startswith(("consensus", "delay", "deepspace"))])
+def test_a_campaign_batch_gives_each_run_the_metrics_of_the_run_alone(name, tmp_path):
+    """A batch is simulated and analysed at once (metrics over the batch); each row must hold
+    what ``coopsat run`` computes for that run's scenario on its own (a batch sums in another
+    order: the last bits may differ)."""
+    from coopsat.workflows.analyse import analyse
+    from coopsat.workflows.campaign.batch import run_overrides
+    from coopsat.workflows.campaign.runner import make_job
+    from coopsat.workflows.pipeline import prepare, simulate_built
+
+    campaign = load_campaign(name)[0]
+    path = _two_runs(name, tmp_path, LONGER_HORIZON_S[campaign.scenario])
+    job = make_job(path)
+    scenario = tmp_path / "scenario.toml"
+    scenario.write_text(job["scenario_toml"])
+    rows = run_batch_rows(path, [0, 1])
+    assert all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
+    for k, row in enumerate(rows):
+        built = prepare(load_scenario(scenario, run_overrides(job, k)[2]), check_published=False)
+        alone, _ = analyse(built, simulate_built(built)[0], compare=False)
+        assert set(row) - {"run_id", "status", "reason", "seed", "params"} == set(alone)
+        for metric, value in alone.items():
+            if value is None:
+                assert row[metric] is None, metric
+            else:
+                np.testing.assert_allclose(row[metric], value, rtol=1e-9, atol=1e-12, err_msg=metric)
+        assert sum(v is not None for v in alone.values()) >= 3
 
 
 @pytest.mark.slow  # long: runs in CI's second pytest pass (README)

@@ -132,3 +132,31 @@ def test_each_applied_field_is_checked_by_a_run_that_differs_in_it(monkeypatch):
     assert applied._checked_runs({"seed": np.array([0, 3, 4, 0]), "x": np.array([0, 0, 0, 1])}) == [1, 3]
     builds, stacked, note = build_runs(models, ["seed", "spacecraft.0.angle_rad"])
     assert stacked is None and "the system's leaf .x0" in note
+
+
+def test_a_scenario_changed_in_applied_fields_has_the_model_a_whole_validation_gives():
+    """``Scenario.set``/``with_seed`` on the seed or an initial state set the field on the
+    parent's model (no whole validation): the model must equal the one validated from scratch,
+    and a refused value must give the whole validation's own message."""
+    import coopsat
+    from coopsat.scenarios.load import ScenarioError, _merge_defaults, set_path
+    from coopsat.scenarios.schema import Scenario as Model
+
+    base = coopsat.Scenario.load("consensus-sync-a-stable")
+    changed = [
+        base.with_seed(12),
+        base.set("spacecraft.1.omega_b_rad_s", [0.1, -0.2, 0.3]),
+        base.update({"seed": 4, "spacecraft.0.q_bi": [1, 0, 0, 0], "spacecraft.3.angle_rad": [0.0, 0.01, 0.0]}),
+        base.set("sim.t_final_s", 20.0).with_seed(3),  # a whole validation, then a field
+    ]
+    for s in changed:
+        assert s.model == Model.model_validate(_merge_defaults(s.to_dict()))
+    assert changed[0].model.seed == 12 and changed[1].model.spacecraft[1].omega_b_rad_s == [0.1, -0.2, 0.3]
+    for path, value in [("seed", -1), ("spacecraft.1.omega_b_rad_s", [0.1, 0.2]), ("spacecraft.0.q_bi", [0, 0, 0, 0])]:
+        with pytest.raises(ScenarioError) as fast:
+            base.set(path, value)
+        raw = base.to_dict()
+        set_path(raw, path, value)
+        with pytest.raises(ScenarioError) as whole:
+            coopsat.Scenario(raw)  # validated whole
+        assert str(fast.value) == str(whole.value)

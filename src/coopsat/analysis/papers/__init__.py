@@ -6,6 +6,11 @@ the modules of the plug-ins it uses. Every member of such a module is optional (
 gives each one's type and its default when absent):
 
 * ``metrics(ds, built) -> dict`` — named numbers (unit at the end of each name); default none;
+* ``batch_metrics(ds, builds) -> dict`` — the same numbers for every run of a batch at once:
+  ``ds`` the batch's record (dimension ``run`` first), ``builds`` each run's build, each number
+  an array over the runs (NaN for None). Campaigns and ``run_batch`` use it where it is
+  defined (one call per batch instead of one per run); a module with only one of the two
+  serves both (a batch run by run, or a run as a batch of one); default none;
 * ``EXPLAINERS`` — ``{metric name or "_suffix": (quantity, metrics) -> str or None}``: why a
   published number differs; default none;
 * ``series(ds, built) -> {name: DataArray}`` — time series derived from the record (truth
@@ -29,6 +34,7 @@ are added.
 import importlib
 from collections.abc import Mapping
 
+from coopsat.analysis.metrics import run_rows
 from coopsat.analysis.stages import guarded
 from coopsat.core.errors import one_line
 from coopsat.plugins import PluginError
@@ -48,6 +54,7 @@ def _is_mapping(value):
 
 MEMBERS = {
     "metrics": (callable, "a function (ds, built) -> dict of name -> float", None),
+    "batch_metrics": (callable, "a function (ds, builds) -> dict of name -> array over the runs", None),
     "EXPLAINERS": (_is_callable_map, "a dict of metric name or '_suffix' -> function (quantity, metrics) -> str or None",
                    {}),
     "series": (callable, "a function (ds, built) -> dict of name -> xarray.DataArray", None),
@@ -131,7 +138,37 @@ def paper_metrics(ds, built, failures=None):
     for module in paper_modules(built):
         if member(module, "metrics") is not None:
             m.update(guarded(failures, "metrics", source_of(module, built), {}, module.metrics, ds, built))
+        elif member(module, "batch_metrics") is not None:
+            m.update(guarded(failures, "metrics", source_of(module, built), {},
+                             lambda mod=module: run_rows(mod.batch_metrics(ds.expand_dims("run"), [built]), 1)[0]))
     return m
+
+
+def paper_batch_metrics(ds, builds, failures=None):
+    """Every paper module's metrics of each run of a batch (one dict per run): a module's
+    ``batch_metrics`` once for the batch, else its ``metrics`` run by run (on ``ds.isel(run=r)``).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The batch's record, dimension ``run`` first.
+    builds : sequence of Built
+        Each run's build; they share one structure, hence one set of modules.
+    failures : list, optional
+        As :func:`paper_metrics` (a module failing in a batch adds nothing to any of its runs).
+    """
+    rows = [{} for _ in builds]
+    for module in paper_modules(builds[0]):
+        source = source_of(module, builds[0])
+        if member(module, "batch_metrics") is not None:
+            batch = guarded(failures, "metrics", source, None,
+                            lambda mod=module: run_rows(mod.batch_metrics(ds, builds), len(builds)))
+            for row, values in zip(rows, batch or ()):
+                row.update(values)
+        elif member(module, "metrics") is not None:
+            for r, (row, built) in enumerate(zip(rows, builds)):
+                row.update(guarded(failures, "metrics", source, {}, module.metrics, ds.isel(run=r), built))
+    return rows
 
 
 def explainers(built, failures=None):

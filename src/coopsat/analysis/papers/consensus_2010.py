@@ -13,7 +13,8 @@ from coopsat.analysis.metrics import (
     pairwise_attitude_error_deg,
     pairwise_rate_difference_rad_s,
     quat_angle_between_deg,
-    settle_time_s,
+    run_rows,
+    settle_times_s,
 )
 from coopsat.analysis.surrogates import Surrogate, settled_by, time_weighted_error
 from coopsat.scenarios.build import inertia_matrix
@@ -49,42 +50,64 @@ def _spin_down_bounds(scenario, omega_ref):
 
 
 def metrics(ds, built):
-    """Synchronisation and (for law (4)) tracking metrics of a run.
+    """Synchronisation and (for law (4)) tracking metrics of a run (:func:`batch_metrics` of a
+    batch of one).
 
     Returns
     -------
     dict of str -> float or None
     """
-    a = built.scenario.analysis
+    return run_rows(batch_metrics(ds.expand_dims("run"), [built]), 1)[0]
+
+
+def batch_metrics(ds, builds):
+    """:func:`metrics` of every run of a batch at once.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The batch's record, dimension ``run`` first.
+    builds : sequence of Built
+        Each run's build (its thresholds, reference and initial spin are its own).
+
+    Returns
+    -------
+    dict of str -> ndarray, shape (R,)
+        NaN for a time never reached.
+    """
+    analysis = [b.scenario.analysis for b in builds]
+    sync_deg, sync_rate, spin_rate, hold = (np.array([getattr(a, f) for a in analysis], dtype=float) for f in
+                                            ("sync_attitude_deg", "sync_rate_rad_s", "spin_rate_rad_s", "settle_hold_s"))
     t = ds["time"].values
-    q = ds["q"].values
-    omega = ds["omega"].values
-    att = pairwise_attitude_error_deg(q)
+    q = ds["q"].values  # (R, T, n, 4)
+    omega = ds["omega"].values  # (R, T, n, 3)
+    att = pairwise_attitude_error_deg(q)  # (R, T)
     rate = pairwise_rate_difference_rad_s(omega)
-    synced = (att < a.sync_attitude_deg) & (rate < a.sync_rate_rad_s)
+    synced = (att < sync_deg[:, None]) & (rate < sync_rate[:, None])
     m = {
-        "sync_time_s": settle_time_s(t, synced, a.settle_hold_s),
-        "final_attitude_spread_deg": float(att[-1]),
-        "final_rate_spread_rad_s": float(rate[-1]),
+        "sync_time_s": settle_times_s(t, synced, hold, axis=1),
+        "final_attitude_spread_deg": att[:, -1],
+        "final_rate_spread_rad_s": rate[:, -1],
     }
-    ctrl = built.scenario.controller
-    if ctrl.kind != "consensus-track":
+    if builds[0].scenario.controller.kind != "consensus-track":  # the law is the batch's structure
         return m
-    omega_ref = np.asarray(ctrl.omega_ref_rad_s)
-    err_deg = quat_angle_between_deg(q, ds["q_ref"].values[:, None, :])  # (T, n)
-    rate_err = np.linalg.norm(omega - omega_ref, axis=-1)  # (T, n)
-    tracking = (err_deg < a.sync_attitude_deg) & (rate_err < a.sync_rate_rad_s)
-    m["track_time_s"] = settle_time_s(t, tracking.all(axis=1), a.settle_hold_s)
-    m["final_track_error_deg"] = float(err_deg[-1].max())
-    m["final_track_rate_error_rad_s"] = float(rate_err[-1].max())
-    for name, ts in zip(built.names, settle_time_s(t, rate_err < a.sync_rate_rad_s, a.settle_hold_s)):
-        m[f"{name}_rate_settle_time_s"] = ts
+    omega_ref = np.array([b.scenario.controller.omega_ref_rad_s for b in builds], dtype=float)  # (R, 3)
+    err_deg = quat_angle_between_deg(q, ds["q_ref"].values[:, :, None, :])  # (R, T, n)
+    rate_err = np.linalg.norm(omega - omega_ref[:, None, None, :], axis=-1)  # (R, T, n)
+    tracking = (err_deg < sync_deg[:, None, None]) & (rate_err < sync_rate[:, None, None])
+    m["track_time_s"] = settle_times_s(t, tracking.all(axis=-1), hold, axis=1)
+    m["final_track_error_deg"] = err_deg[:, -1].max(axis=-1)
+    m["final_track_rate_error_rad_s"] = rate_err[:, -1].max(axis=-1)
+    names = builds[0].names
+    settle = settle_times_s(t, rate_err < sync_rate[:, None, None], hold[:, None], axis=1)  # (R, n)
+    m.update({f"{name}_rate_settle_time_s": settle[:, i] for i, name in enumerate(names)})
     # The spin itself: the excess rate along each spacecraft's initial spin axis.
-    axes, _ = spin_axes(built.scenario, omega_ref)
-    spin = np.abs(np.einsum("tni,ni->tn", omega - omega_ref, axes))  # (T, n)
-    for name, ts in zip(built.names, settle_time_s(t, spin < a.spin_rate_rad_s, a.settle_hold_s)):
-        m[f"{name}_spin_down_time_s"] = ts
-    m.update(_spin_down_bounds(built.scenario, omega_ref))
+    axes = np.stack([spin_axes(b.scenario, w)[0] for b, w in zip(builds, omega_ref)])  # (R, n, 3)
+    spin = np.abs(np.einsum("rtni,rni->rtn", omega - omega_ref[:, None, None, :], axes))  # (R, T, n)
+    spun = settle_times_s(t, spin < spin_rate[:, None, None], hold[:, None], axis=1)
+    m.update({f"{name}_spin_down_time_s": spun[:, i] for i, name in enumerate(names)})
+    bounds = [_spin_down_bounds(b.scenario, w) for b, w in zip(builds, omega_ref)]
+    m.update({k: np.array([b[k] for b in bounds]) for k in bounds[0]})
     return m
 
 

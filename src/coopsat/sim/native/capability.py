@@ -225,6 +225,7 @@ def _keep_verdict(path, verdict):
 _lock = threading.Lock()
 _verdict = []
 _warned = []
+_static = []  # the platform, device and version check's reason (None: passed), made once
 
 
 def _checked(worth_probing=True):
@@ -232,7 +233,11 @@ def _checked(worth_probing=True):
     nothing decided, when only the probe could tell and the run is not ``worth_probing``."""
     with _lock:
         if not _verdict:
-            reason = platform_problem() or device_problem() or version_problem()
+            # Kept apart from the verdict: a process that has none yet (its runs too small to
+            # probe) asks again for every run, and reading the packages' metadata costs 1.5 ms.
+            if not _static:
+                _static.append(platform_problem() or device_problem() or version_problem())
+            reason = _static[0]
             path = verdict_path() if reason is None else None
             kept = _load_verdict(path) if path is not None else None
             if kept is None and reason is None:
@@ -284,3 +289,4 @@ def reset():
     with _lock:
         _verdict.clear()
         _warned.clear()
+        _static.clear()

@@ -93,8 +93,7 @@ def run_batch(job, run_ids, native=None):
         ``native`` is True and the kernels cannot run in this process.
     """
     from coopsat.sim.engine import NonFiniteStateError
-    from coopsat.workflows.pipeline import analyse
-    from coopsat.workflows.sweep import simulate_runs
+    from coopsat.workflows.sweep import analysed_runs
 
     t0 = time.perf_counter()
     campaign = Campaign.model_validate(job["campaign"])
@@ -110,13 +109,14 @@ def run_batch(job, run_ids, native=None):
         # One device whatever the machine, so that a run's stored result (and its replay) does
         # not depend on how many cores the worker had; groups padded to recurring sizes, so
         # that a worker compiles each structure a few times, not once per batch.
-        datasets, compile_s, run_s = simulate_runs(blds, every_core=False, bucket=campaign.batch_size, native=native,
-                                                   stacked=stacked if len(blds) == len(builds) else None)
+        # Each run's dataset made only when the campaign keeps its timeseries.
+        metrics, datasets, compile_s, run_s = analysed_runs(
+            blds, datasets=bool(campaign.timeseries), every_core=False, bucket=campaign.batch_size, native=native,
+            stacked=stacked if len(blds) == len(builds) else None)
         seconds["compile"] += compile_s
         seconds["simulate"] += run_s
-        for k, b, ds in zip(ids, blds, datasets):
-            metrics, _ = analyse(b, ds, compare=False)
-            rows[k].update({name: _scalar(v) for name, v in metrics.items()})
+        for k, m, ds in zip(ids, metrics, datasets):
+            rows[k].update({name: _scalar(v) for name, v in m.items()})
             if campaign.timeseries:
                 series[k] = ds[campaign.timeseries].isel(time=slice(None, None, campaign.decimate))
 

@@ -74,7 +74,8 @@ def _assert_same(batch_rows, single_rows):
     ]),
     ("consensus-sync-a-stable", [{"sim.t_final_s": 40.0, "spacecraft.0.omega_b_rad_s": [w, 0.0, 0.5]}
                                  for w in (0.5, 0.1, 0.0)]),
-    ("deepspace-square-to-line-lqr", [{"sim.t_final_s": 2000.0, "seed": s} for s in (0, 1)]),  # no batch_metrics
+    ("deepspace-square-to-line-lqr", [{"sim.t_final_s": 3000.0, "seed": s} for s in (0, 1)]),
+    ("delay-designed", [{"sim.t_final_s": 20.0, "seed": s} for s in (0, 1)]),  # a module without batch_metrics
 ])
 def test_a_batch_analysed_at_once_is_each_run_analysed_alone(name, sets):
     builds, out = _batch(coopsat.Scenario.load(name), sets)

@@ -18,7 +18,7 @@ the same settling time (:mod:`coopsat.analysis.tradeoff`).
 
 import numpy as np
 
-from coopsat.analysis.metrics import settle_time_s
+from coopsat.analysis.metrics import run_rows, settle_times_s
 from coopsat.analysis.surrogates import Surrogate, settled_by, time_weighted_error
 
 FIGURES = "coopsat.plots.formation"
@@ -31,43 +31,46 @@ def formation_error_m(r_m, target_m, axes):
 
     Parameters
     ----------
-    r_m : (T, n, 3)
-        Positions (any inertial origin), m.
-    target_m : (n, d)
-        Target positions in the design axes, m (any origin).
+    r_m : (..., T, n, 3)
+        Positions (any inertial origin), m; a leading axis: runs of a batch.
+    target_m : (..., n, d)
+        Target positions in the design axes, m (any origin), of each run.
     axes : sequence of int
         The design axes (length d); the other axes' targets are the initial plane (zero
         relative offset).
 
     Returns
     -------
-    ndarray (T,)
+    ndarray (..., T)
     """
-    rel = r_m - r_m.mean(axis=1, keepdims=True)
-    goal = np.zeros(r_m.shape[1:])
-    goal[:, list(axes)] = target_m - target_m.mean(axis=0)
-    return np.linalg.norm(rel - goal, axis=-1).max(axis=-1)
+    target_m = np.asarray(target_m, dtype=float)
+    rel = r_m - r_m.mean(axis=-2, keepdims=True)
+    goal = np.zeros((*target_m.shape[:-1], 3))
+    goal[..., list(axes)] = target_m - target_m.mean(axis=-2, keepdims=True)
+    return np.linalg.norm(rel - goal[..., None, :, :], axis=-1).max(axis=-1)
 
 
 def centroid_drift_m(t_s, impulse_ns, mass_kg):
-    """Displacement of the centroid caused by the net thrust, (T, 3), m.
+    """Displacement of the centroid caused by the net thrust, (..., T, 3), m.
 
     Parameters
     ----------
     t_s : (T,)
-    impulse_ns : (T, n, 3)
+    impulse_ns : (..., T, n, 3)
         Cumulative signed impulse of each spacecraft's thrusters (inertial axes), N·s.
-    mass_kg : float
-        Mass of each spacecraft (equal masses).
+    mass_kg : float or ndarray (...)
+        Mass of each spacecraft (equal masses), of each run.
     """
     from scipy.integrate import cumulative_trapezoid
 
-    dv = impulse_ns.sum(axis=1) / (impulse_ns.shape[1] * mass_kg)
-    return cumulative_trapezoid(dv, t_s, axis=0, initial=0.0)
+    mass = np.asarray(mass_kg, dtype=float)[..., None, None]
+    dv = impulse_ns.sum(axis=-2) / (impulse_ns.shape[-2] * mass)
+    return cumulative_trapezoid(dv, t_s, axis=-2, initial=0.0)
 
 
 def metrics(ds, built):
-    """Formation, fuel and centroid metrics of a formation-observer run.
+    """Formation, fuel and centroid metrics of a formation-observer run (:func:`batch_metrics`
+    of a batch of one).
 
     Returns
     -------
@@ -77,31 +80,39 @@ def metrics(ds, built):
         ``settle_hold_s``), ``fuel_l1_ns`` with ``fuel_l1_x_ns`` … per axis, ``fuel_l2_ns``,
         ``centroid_drift_max_m``, ``centroid_drift_final_m``, ``relayed_lines_total``.
     """
+    return run_rows(batch_metrics(ds.expand_dims("run"), [built]), 1)[0]
+
+
+def batch_metrics(ds, builds):
+    """:func:`metrics` of every run of a batch at once (``ds``: its record, ``run`` first), each
+    an array over the runs (NaN for a time never reached)."""
     from coopsat.plugins.formation import PLANES
 
-    table = built.scenario.controller
-    a = built.scenario.analysis
+    tables = [b.scenario.controller for b in builds]
+    tolerance, hold = (np.array([getattr(b.scenario.analysis, f) for b in builds], dtype=float)
+                       for f in ("formation_tolerance_m", "settle_hold_s"))
     t = ds["time"].values
-    err = formation_error_m(ds["r_eci"].values, np.asarray(table.target_m, dtype=float), PLANES[table.plane])
+    targets = np.stack([np.asarray(tb.target_m, dtype=float) for tb in tables])  # (R, n, d)
+    err = formation_error_m(ds["r_eci"].values, targets, PLANES[tables[0].plane])  # (R, T); the plane is structure
     late = t >= t[0] + 0.9 * (t[-1] - t[0])
     m = {
-        "formation_error_final_m": float(err[-1]),
-        "formation_error_late_max_m": float(err[late].max()),
-        "settling_time_s": settle_time_s(t, err < a.formation_tolerance_m, a.settle_hold_s),
+        "formation_error_final_m": err[:, -1],
+        "formation_error_late_max_m": err[:, late].max(axis=-1),
+        "settling_time_s": settle_times_s(t, err < tolerance[:, None], hold, axis=1),
     }
     if "abs_force_impulse" in ds:
-        per_axis = ds["abs_force_impulse"].values[-1].sum(axis=0)
-        m.update({f"fuel_l1_{c}_ns": float(v) for c, v in zip("xyz", per_axis)})
-        m["fuel_l1_ns"] = float(per_axis.sum())
+        per_axis = ds["abs_force_impulse"].values[:, -1].sum(axis=1)  # (R, 3)
+        m.update({f"fuel_l1_{c}_ns": per_axis[:, k] for k, c in enumerate("xyz")})
+        m["fuel_l1_ns"] = per_axis.sum(axis=-1)
     if "norm_force_impulse" in ds:
-        m["fuel_l2_ns"] = float(ds["norm_force_impulse"].values[-1].sum())
+        m["fuel_l2_ns"] = ds["norm_force_impulse"].values[:, -1].reshape(len(builds), -1).sum(axis=-1)
     if "force_impulse" in ds:
-        mass = float(built.scenario.spacecraft[0].mass_kg)
-        drift = np.linalg.norm(centroid_drift_m(t, ds["force_impulse"].values, mass), axis=-1)
-        m["centroid_drift_max_m"] = float(drift.max())
-        m["centroid_drift_final_m"] = float(drift[-1])
+        mass = np.array([float(b.scenario.spacecraft[0].mass_kg) for b in builds])
+        drift = np.linalg.norm(centroid_drift_m(t, ds["force_impulse"].values, mass), axis=-1)  # (R, T)
+        m["centroid_drift_max_m"] = drift.max(axis=-1)
+        m["centroid_drift_final_m"] = drift[:, -1]
     if "relayed_lines" in ds:
-        m["relayed_lines_total"] = float(ds["relayed_lines"].values.sum())
+        m["relayed_lines_total"] = ds["relayed_lines"].values.reshape(len(builds), -1).sum(axis=-1).astype(float)
     return m
 
 

@@ -5,7 +5,6 @@ No code runs from a scenario file: it is parsed with :mod:`tomllib` and validate
 :class:`ScenarioError` whose message names the field (``controller.alpha: …``).
 """
 
-import copy
 import math
 import re
 import sys
@@ -218,8 +217,12 @@ def set_path(raw, key, value, what=""):
 
 
 def _merge_defaults(raw):
-    """Give each ``[[spacecraft]]`` the ``[spacecraft_defaults]`` it does not set, and a name."""
-    raw = copy.deepcopy(raw)
+    """Give each ``[[spacecraft]]`` the ``[spacecraft_defaults]`` it does not set, and a name.
+
+    The caller's ``raw`` is left as it was: the top-level table is copied and each spacecraft's
+    table made anew, nothing nested is changed in place (a deep copy was a fifth of the load
+    of 1e4 spacecraft)."""
+    raw = dict(raw)
     defaults = raw.pop("spacecraft_defaults", {}) or {}
     if not isinstance(defaults, dict):
         raise ScenarioError("spacecraft_defaults: must be a table")

@@ -9,6 +9,7 @@ Every field is SI; only fields whose name ends in ``_deg`` are in degrees (conve
 scenario is built). docs/scenarios.md documents each field; keep the two in step.
 """
 
+import math
 from typing import Annotated, Literal, Union
 
 import numpy as np
@@ -54,6 +55,8 @@ station about 1e8)."""
 
 def _check_inertia(inertia):
     """A physical inertia: [Ixx, Iyy, Izz] or symmetric 3×3, positive definite, triangle inequality."""
+    if len(inertia) == 3 and all(isinstance(v, float) for v in inertia) and _principal_ok(inertia):
+        return inertia
     try:
         m = np.diag(inertia) if np.ndim(inertia) == 1 else np.asarray(inertia, dtype=float)
     except ValueError:  # ragged nested lists
@@ -75,6 +78,15 @@ def _check_inertia(inertia):
             "(I1 + I2 >= I3): no rigid body has them"
         )
     return inertia
+
+
+def _principal_ok(moments):
+    """Whether principal moments [I1, I2, I3] pass every check of :func:`_check_inertia`, in
+    plain Python (NumPy's per-call cost was most of a big formation's validation); any that
+    fails goes through the full check, for its message."""
+    low, mid, high = sorted(moments)
+    return (all(math.isfinite(v) for v in moments) and max(abs(v) for v in moments) <= MAX_INERTIA_KGM2
+            and low >= MIN_INERTIA_KGM2 and low + mid >= high * (1.0 - 1e-9))
 
 
 Inertia = Annotated[list[float] | list[list[float]], AfterValidator(_check_inertia)]

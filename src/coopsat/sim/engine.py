@@ -298,20 +298,26 @@ def simulate(system, n_records, record_interval_s, *, native=None, **options):
     follows ``COOPSAT_NATIVE`` (default ``auto``: the kernels where the process's check passes,
     else XLA with one :class:`~coopsat.sim.native.capability.NativeFallbackWarning`). The
     check is made once per process (:mod:`coopsat.sim.native.capability`), so every run of a
-    process, alone or in a batch, takes the same path; until it is made, a run too small to pay
-    for the probe takes the XLA path. The other arguments are
+    process, alone or in a batch, takes the same path; until it is made, a call too small to pay
+    for the probe (a run, or a batch counted whole) takes the XLA path. The other arguments are
     :func:`simulate_as_built`'s.
     """
-    return simulate_as_built(with_native_decided(system, n_records, native), n_records, record_interval_s, **options)
+    runs = int(np.shape(system.key)[0]) if options.get("batched") else 1
+    return simulate_as_built(with_native_decided(system, n_records, native, runs), n_records, record_interval_s,
+                             **options)
 
 
-def with_native_decided(system, n_records, native=None):
+def with_native_decided(system, n_records, native=None, runs=1):
     """``system`` with ``structure.native`` False where this process will not run the native
-    kernels for a run of ``n_records`` record intervals (``native`` as :func:`simulate`)."""
+    kernels for ``runs`` runs of ``n_records`` record intervals simulated together (``native``
+    as :func:`simulate`).
+
+    A batch is counted whole: a campaign's runs are each too small to pay for the probe, but
+    its batches are not, and a worker left on the XLA path ran them 1.5× slower."""
     from coopsat.sim.native.capability import use_native
 
     s = system.structure
-    sc_steps = n_records * s.periods_per_record * s.ticks_per_period * s.substeps * s.n_spacecraft  # of one run
+    sc_steps = runs * n_records * s.periods_per_record * s.ticks_per_period * s.substeps * s.n_spacecraft
     if s.native and not use_native(native, sc_steps):
         system = replace(system, structure=replace(system.structure, native=False))
     return system

@@ -258,8 +258,8 @@ def known_verdict():
 
 def use_native(native=None, sc_steps=None):
     """Whether this process runs the native kernels for a run that asks ``native`` (True,
-    False, or None: :data:`ENV`). ``sc_steps``: the run's size (spacecraft × integration
-    steps, of one run of a batch); in ``auto`` mode a process with no verdict yet runs the
+    False, or None: :data:`ENV`). ``sc_steps``: the call's size (spacecraft × integration
+    steps, a batch's runs together); in ``auto`` mode a process with no verdict yet runs the
     probe only when it is at least :data:`PROBE_WORTH_SC_STEPS` (or unknown).
 
     Raises

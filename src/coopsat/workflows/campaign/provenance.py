@@ -76,10 +76,10 @@ def native_choice(builds, native=None):
     """Whether this process runs the native kernels for a batch's built runs, and why not.
 
     The engine decides per call (:func:`coopsat.sim.engine.with_native_decided`): until the
-    process has a verdict, a run too small for the probe takes XLA's path, and the first run
-    large enough runs the probe that decides every later one. So every run is decided once
-    (any probe runs now), then again: that second answer is the one every group of the batch
-    gets when it is simulated next.
+    process has a verdict, a call too small for the probe (a batch counted whole) takes XLA's
+    path, and the first one large enough runs the probe that decides every later one. So every
+    run is decided once, as part of the whole batch (any probe runs now), then again: that
+    second answer is the one every group of the batch gets when it is simulated next.
 
     Returns
     -------
@@ -89,9 +89,10 @@ def native_choice(builds, native=None):
     """
     from coopsat.sim.engine import with_native_decided
 
+    # Counted as the engine counts a batch: all the batch's runs together.
     for b in builds:
-        with_native_decided(b.system, b.n_records, native)
-    used = {with_native_decided(b.system, b.n_records, native).structure.native for b in builds}
+        with_native_decided(b.system, b.n_records, native, len(builds))
+    used = {with_native_decided(b.system, b.n_records, native, len(builds)).structure.native for b in builds}
     if not used:
         return None, "no run of the batch was simulated"
     on = used == {True}
@@ -108,7 +109,7 @@ def _native_off_reason(native):
         return f"{capability.ENV}=0"
     verdict = capability.known_verdict()  # the capability module's own, read without probing
     if verdict is None:
-        return (f"no verdict in this process (none kept beside a persistent JAX cache) and its runs are below the "
+        return (f"no verdict in this process (none kept beside a persistent JAX cache) and its batch is below the "
                 f"probe's {capability.PROBE_WORTH_SC_STEPS:.0e} spacecraft-steps")
     return verdict.reason
 

@@ -210,11 +210,17 @@ def attitude_moves(ds, initial_rate_rad_s=None, initial_angle_rad=None):
     -------
     bool
     """
-    if any(v.attrs.get("units") == TORQUE_UNITS for v in ds.data_vars.values()):
+    if records_torque(ds):
         return True
     rate = ds["omega"].values[0] if initial_rate_rad_s is None else initial_rate_rad_s
     angle = (ds["angle"].values[0] if "angle" in ds else 0.0) if initial_angle_rad is None else initial_angle_rad
     return bool(np.any(np.asarray(rate) != 0.0) or np.any(np.asarray(angle) != 0.0))
+
+
+def records_torque(ds):
+    """Whether a run record holds a torque (a variable in :data:`TORQUE_UNITS`): something can
+    turn its spacecraft."""
+    return any(v.attrs.get("units") == TORQUE_UNITS for v in ds.data_vars.values())
 
 
 def run_metrics(ds, names, inertia_kgm2, h_wheels_b_nms=0.0, attitude=True):

@@ -54,8 +54,13 @@ station about 1e8)."""
 
 
 def _check_inertia(inertia):
-    """A physical inertia: [Ixx, Iyy, Izz] or symmetric 3×3, positive definite, triangle inequality."""
-    if len(inertia) == 3 and all(isinstance(v, float) for v in inertia) and _principal_ok(inertia):
+    """A physical inertia: [Ixx, Iyy, Izz] or symmetric 3×3, positive definite, triangle inequality.
+
+    Principal moments given as three floats are checked in plain Python (they are their own
+    eigenvalues; NumPy's per-call cost was most of a big formation's validation)."""
+    if len(inertia) == 3 and all(isinstance(v, float) for v in inertia):
+        _check_entries(inertia)
+        _check_moments(sorted(inertia))
         return inertia
     try:
         m = np.diag(inertia) if np.ndim(inertia) == 1 else np.asarray(inertia, dtype=float)
@@ -63,30 +68,29 @@ def _check_inertia(inertia):
         raise ValueError("must be [Ixx, Iyy, Izz] or a 3×3 matrix, kg·m²") from None
     if m.shape != (3, 3):
         raise ValueError("must be [Ixx, Iyy, Izz] or a 3×3 matrix, kg·m²")
-    if not np.all(np.isfinite(m)) or np.abs(m).max() > MAX_INERTIA_KGM2:
-        raise ValueError(f"entries must be finite and at most {MAX_INERTIA_KGM2:g} kg·m² (the ISS is about 1e8)")
+    _check_entries(m.ravel().tolist())
     if not np.allclose(m, m.T, rtol=1e-12, atol=0.0):
         raise ValueError("must be symmetric, kg·m²")
-    eig = np.linalg.eigvalsh(m)
+    _check_moments(np.linalg.eigvalsh(m).tolist())
+    return inertia
+
+
+def _check_entries(entries):
+    if not all(math.isfinite(v) for v in entries) or max(abs(v) for v in entries) > MAX_INERTIA_KGM2:
+        raise ValueError(f"entries must be finite and at most {MAX_INERTIA_KGM2:g} kg·m² (the ISS is about 1e8)")
+
+
+def _check_moments(eig):
+    """Principal moments, ascending: positive, not below :data:`MIN_INERTIA_KGM2`, triangle inequality."""
     if eig[0] <= 0.0:
-        raise ValueError(f"must be positive definite (principal moments {eig.round(6).tolist()} kg·m²)")
+        raise ValueError(f"must be positive definite (principal moments {np.round(eig, 6).tolist()} kg·m²)")
     if eig[0] < MIN_INERTIA_KGM2:
         raise ValueError(f"smallest principal moment {eig[0]:.3g} kg·m² is below {MIN_INERTIA_KGM2:g} kg·m²")
     if eig[0] + eig[1] < eig[2] * (1.0 - 1e-9):
         raise ValueError(
-            f"principal moments {eig.round(6).tolist()} kg·m² break the triangle inequality "
+            f"principal moments {np.round(eig, 6).tolist()} kg·m² break the triangle inequality "
             "(I1 + I2 >= I3): no rigid body has them"
         )
-    return inertia
-
-
-def _principal_ok(moments):
-    """Whether principal moments [I1, I2, I3] pass every check of :func:`_check_inertia`, in
-    plain Python (NumPy's per-call cost was most of a big formation's validation); any that
-    fails goes through the full check, for its message."""
-    low, mid, high = sorted(moments)
-    return (all(math.isfinite(v) for v in moments) and max(abs(v) for v in moments) <= MAX_INERTIA_KGM2
-            and low >= MIN_INERTIA_KGM2 and low + mid >= high * (1.0 - 1e-9))
 
 
 Inertia = Annotated[list[float] | list[list[float]], AfterValidator(_check_inertia)]

@@ -6,7 +6,7 @@ each paper module's (:mod:`coopsat.analysis.papers`), each stage guarded
 import numpy as np
 
 from coopsat.analysis.compare import compare_published
-from coopsat.analysis.metrics import attitude_moves, batch_run_metrics, run_metrics, run_rows
+from coopsat.analysis.metrics import attitude_moves, batch_run_metrics, records_torque, run_metrics, run_rows
 from coopsat.analysis.papers import explainers, paper_batch_metrics, paper_metrics
 from coopsat.analysis.stages import guarded
 from coopsat.scenarios.build import inertia_matrix
@@ -47,7 +47,7 @@ def analyse_batch(builds, ds, failures=None):
         As :func:`analyse`.
     """
     inertia, h_wheels = (np.stack(a) for a in zip(*(_bodies(b) for b in builds)))
-    torqued = attitude_moves(ds, 0.0, 0.0)  # whether the record holds a torque: the batch's structure
+    torqued = records_torque(ds)  # the batch's structure: once, not per run
     moves = np.array([torqued or _attitude_moves(ds, b) for b in builds])
     rows = [dict(b.design_metrics) for b in builds]
     for flag in np.unique(moves):  # a run that starts at rest untorqued has no rate metrics

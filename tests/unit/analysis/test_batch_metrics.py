@@ -63,7 +63,9 @@ def _assert_same(batch_rows, single_rows):
             if value is None or isinstance(value, int):
                 assert got[name] == value, name
             else:
-                np.testing.assert_allclose(got[name], value, rtol=1e-12, atol=0.0, err_msg=name)
+                # A batch sums in another order than a run alone, and that order depends on the
+                # CPU's vector width: agreement to far above rounding, not bits.
+                np.testing.assert_allclose(got[name], value, rtol=1e-9, atol=1e-12, err_msg=name)
 
 
 @pytest.mark.parametrize("name, sets", [

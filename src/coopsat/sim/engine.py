@@ -30,6 +30,7 @@ import numpy as np
 
 from coopsat.dynamics.plant import STATE_QUANTITIES
 from coopsat.sim.batching import CARRY_AXES, bucket_runs, prepare_batch
+from coopsat.sim.compiler_options import compile_program
 from coopsat.sim.memory import runs_per_call
 from coopsat.sim.program_cache import ProgramCache
 from coopsat.sim.programs import _final_sample, _initial_carry, _run_chunk, _run_chunk_batched
@@ -182,17 +183,17 @@ def _compile(system, n_records, chunk, batch):
         init = jax.vmap(init, in_axes=(batch.axes,), out_axes=CARRY_AXES)
         final = jax.vmap(final, in_axes=(batch.axes, CARRY_AXES))
     carry = jax.eval_shape(init, system)
-    init = jax.jit(init).lower(system).compile()
+    init = compile_program(jax.jit(init).lower(system))
     lowered = (jax.jit(_fresh(_run_chunk_batched), static_argnames=("chunk", "groups", "devices")).lower(
                    system, carry, 0, n_records, chunk, batch.groups, batch.devices)
                if batch is not None else
                jax.jit(_fresh(_run_chunk), static_argnames=("chunk",)).lower(system, carry, 0, n_records, chunk))
-    run_chunk = lowered.compile()
+    run_chunk = compile_program(lowered)
     # The last sample reads the carry as the chunks leave it (shared among devices when a
     # batch is).
     carry = jax.tree_util.tree_map(lambda a, sharding: jax.ShapeDtypeStruct(a.shape, a.dtype, sharding=sharding),
                                    carry, run_chunk.output_shardings[0])
-    return init, run_chunk, jax.jit(final).lower(system, carry).compile()
+    return init, run_chunk, compile_program(jax.jit(final).lower(system, carry))
 
 
 def _programs(system, n_records, chunk, batch):

@@ -80,6 +80,10 @@ def test_bad_values_raise_the_cli_line(scenario):
         scenario.set("spacecraft.7.mass_kg", 1.0)
     with pytest.raises(coopsat.ScenarioError, match="no bundled scenario named 'no-such'"):
         coopsat.Scenario.load("no-such")
+    for api_call in (coopsat.run, coopsat.Scenario.load, coopsat.validate):
+        with pytest.raises(coopsat.ScenarioError, match=r"^scenario: expected a Scenario, a bundled scenario's name or a path "
+                                                         r"to a \.toml file, got NoneType$"):
+            api_call(None)
     # the CLI prints the same line
     proc = subprocess.run([sys.executable, "-m", "coopsat.cli", "validate", "consensus-sync-a-stable", "--set",
                            "controller.alpha=-1.0"], capture_output=True, text=True)

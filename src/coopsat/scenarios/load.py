@@ -6,6 +6,7 @@ No code runs from a scenario file: it is parsed with :mod:`tomllib` and validate
 """
 
 import math
+import os
 import re
 import sys
 import tomllib
@@ -82,6 +83,9 @@ def read_raw(name_or_path, _depth=0):
 
     if isinstance(name_or_path, Document):
         return name_or_path.to_dict(), name_or_path.name
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        raise ScenarioError(f"scenario: expected a Scenario, a bundled scenario's name or a path to a .toml file, "
+                            f"got {type(name_or_path).__name__}")
     path = Path(name_or_path)
     # A bare name is a bundled scenario even if a folder of that name is lying around.
     if path.suffix == ".toml" or path.is_file() or len(path.parts) > 1:

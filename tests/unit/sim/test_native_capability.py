@@ -357,3 +357,30 @@ def test_a_batch_is_counted_whole_for_the_probe(verdict_dir, monkeypatch):
     runs = math.ceil(capability.PROBE_WORTH_SC_STEPS / per_run)
     assert with_native_decided(built.system, built.n_records, runs=runs).structure.native is True
     assert with_native_decided(built.system, built.n_records).structure.native is True  # the process keeps it
+
+
+def test_a_float32_process_neither_probes_nor_keeps_a_verdict(tmp_path):
+    """The kernels read float64: a process that declined x64 is refused before the probe, and
+    keeps nothing on disk (its failed probe was kept and read by every float64 process of the
+    same install, which then ran XLA)."""
+    import subprocess
+    import sys
+
+    assert capability.precision_problem(True) is None
+    assert capability.precision_problem(False) == "jax_enable_x64 is off in this process and the kernels read float64 arrays"
+    script = f"""
+import coopsat
+from coopsat.sim.native import capability
+coopsat.configure(float64=False, compilation_cache={str(tmp_path)!r})
+capability.probe_problem = lambda: print("probed")
+s = coopsat.Scenario.load("consensus-sync-a-stable").set("sim.t_final_s", 1.0)
+try:
+    coopsat.run(s, native=True)
+except capability.NativeUnavailableError as err:
+    print(err)
+"""
+    env = {k: v for k, v in __import__("os").environ.items() if k != capability.ENV}
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=300)
+    assert out.stdout.strip() == ("native kernels required (COOPSAT_NATIVE=1 or native=True) but jax_enable_x64 is off "
+                                  "in this process and the kernels read float64 arrays"), out.stderr[-2000:]
+    assert not list(tmp_path.rglob("*.json"))

@@ -7,7 +7,8 @@ trusted only where that reading was tested. At the first run that could use them
 1. the switch: ``native=`` of :func:`coopsat.run` / :func:`coopsat.sim.engine.simulate`, else
    the environment variable :data:`ENV` (``0``, ``1`` or ``auto``, the default);
 2. the platform and architecture (:data:`PLATFORMS`: 64-bit Linux; elsewhere they were never
-   run), and JAX's default device the CPU (on a GPU the whole loop runs there, in XLA);
+   run), JAX's default device the CPU (on a GPU the whole loop runs there, in XLA), and the
+   process in float64 (``jax_enable_x64``: the kernels read float64 arrays);
 3. jax and jaxlib lie in :data:`TESTED_JAX`, the range the test suite runs on (CI's newest
    and lowest-versions jobs), and numba, llvmlite and ``jax.ffi`` import;
 4. a probe: a small synthetic formation (:mod:`coopsat.sim.synthetic`) that goes through each
@@ -125,6 +126,24 @@ def device_problem(backend=None):
     return None
 
 
+def precision_problem(x64=None):
+    """Why the kernels cannot run at this process's precision (None when they can): they read
+    float64 arrays, and a process that declined ``jax_enable_x64`` (``coopsat.configure(
+    float64=False)``) makes float32 ones. Decided before the probe, so that such a process
+    neither probes nor keeps a negative verdict on disk where a float64 process of the same
+    install would read it. ``x64``: ``jax_enable_x64`` unless given."""
+    if x64 is None:
+        import jax
+
+        from coopsat.core import runtime
+
+        runtime.enable()  # the process's choice applied first, as every run applies it
+        x64 = jax.config.jax_enable_x64
+    if not x64:
+        return "jax_enable_x64 is off in this process and the kernels read float64 arrays"
+    return None
+
+
 def _release(version):
     """(major, minor, micro) of a version string such as ``0.10.2``, ``0.9`` or ``0.5.0.dev1``."""
     parts = [int("".join(c for c in part if c.isdigit()) or 0) for part in version.split(".")[:3]]
@@ -225,7 +244,7 @@ def _keep_verdict(path, verdict):
 _lock = threading.Lock()
 _verdict = []
 _warned = []
-_static = []  # the platform, device and version check's reason (None: passed), made once
+_static = []  # the platform, device, precision and version check's reason (None: passed), made once
 
 
 def _checked(worth_probing=True):
@@ -236,7 +255,7 @@ def _checked(worth_probing=True):
             # Kept apart from the verdict: a process that has none yet (its runs too small to
             # probe) asks again for every run, and reading the packages' metadata costs 1.5 ms.
             if not _static:
-                _static.append(platform_problem() or device_problem() or version_problem())
+                _static.append(platform_problem() or device_problem() or precision_problem() or version_problem())
             reason = _static[0]
             path = verdict_path() if reason is None else None
             kept = _load_verdict(path) if path is not None else None

@@ -94,6 +94,12 @@ def _cpu_devices():
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
+YNN_FUSION_TYPES = ""
+"""XLA:CPU's ``xla_cpu_experimental_ynn_fusion_type`` as coopsat chooses it: no fusion handed to
+YNNPACK. Set in ``XLA_FLAGS`` for the processes coopsat owns (:func:`_xla_cpu_flags`) and, in
+any process, as a compiler option of the engine's own programs (:mod:`coopsat.sim.compiler_options`)."""
+
+
 def _xla_cpu_flags(cpu_devices=None):
     """XLA_FLAGS with ``cpu_devices`` CPU devices (default :func:`_cpu_devices`) and YNNPACK
     fusions off on the CPU, unless the user chose otherwise.
@@ -117,7 +123,7 @@ def _xla_cpu_flags(cpu_devices=None):
         return flags
     if (major, minor) < (0, 10) or "xla_cpu_experimental_ynn_fusion_type" in flags:
         return flags
-    return f"{flags} --xla_cpu_experimental_ynn_fusion_type=".strip()
+    return f"{flags} --xla_cpu_experimental_ynn_fusion_type={YNN_FUSION_TYPES}".strip()
 
 
 CACHE_SETTINGS = {

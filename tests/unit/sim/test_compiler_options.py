@@ -30,6 +30,19 @@ def test_a_small_middle_axis_sum_is_compiled_by_xla_not_ynnpack(fresh):
     np.testing.assert_array_equal(np.asarray(compiled(jnp.asarray(x))), 2.0 * x[:, :, 0] + 2.0 * x[:, :, 1])
 
 
+def test_the_option_is_the_owned_processes_choice_not_a_second_one(fresh):
+    """A per-program option wins over XLA_FLAGS: in a process coopsat owns (this one: the test
+    set-up is the command's), the engine's programs must not hand dots back to YNNPACK."""
+    from coopsat.core import runtime
+
+    assert CPU_OPTIONS == {"xla_cpu_experimental_ynn_fusion_type": runtime.YNN_FUSION_TYPES}
+    lowered = jax.jit(lambda a, b: (a @ b).sum(axis=1)).lower(jnp.ones((64, 64, 64)), jnp.ones((64, 64)))
+    compiled = compile_program(lowered, "cpu")
+    if compiler_options.options_refused():
+        pytest.skip(f"this jaxlib refuses the options: {compiler_options.options_refused()}")
+    assert "__ynn_fusion" not in compiled.as_text()
+
+
 class _Lowered:
     """A stand-in for ``jax.stages.Lowered`` whose compile with options fails as told."""
 

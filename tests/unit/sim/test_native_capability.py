@@ -363,6 +363,7 @@ def test_a_float32_process_neither_probes_nor_keeps_a_verdict(tmp_path):
     """The kernels read float64: a process that declined x64 is refused before the probe, and
     keeps nothing on disk (its failed probe was kept and read by every float64 process of the
     same install, which then ran XLA)."""
+    import os
     import subprocess
     import sys
 
@@ -379,7 +380,7 @@ try:
 except capability.NativeUnavailableError as err:
     print(err)
 """
-    env = {k: v for k, v in __import__("os").environ.items() if k != capability.ENV}
+    env = {k: v for k, v in os.environ.items() if k != capability.ENV}
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=300)
     assert out.stdout.strip() == ("native kernels required (COOPSAT_NATIVE=1 or native=True) but jax_enable_x64 is off "
                                   "in this process and the kernels read float64 arrays"), out.stderr[-2000:]

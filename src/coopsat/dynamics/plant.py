@@ -94,9 +94,11 @@ _FORCE_CHANNELS = ("force_eci", "force_b", "force_lvlh")
 def _chief(a, chief, axis):
     """The chief's row of a per-spacecraft vector field, kept broadcastable against it:
     (3, n) -> (3, 1) component-major, (n, 3) -> (1, 3), and (3, B, n) -> (3, B, 1) for a batch
-    of B runs (``chief`` then (B, 1))."""
+    of B runs (``chief`` then (B, 1)); for a batch's flat rows (3, B·n) ``chief`` is (B·n,), each
+    spacecraft's chief's index in the row, and the result (3, B·n)
+    (:func:`coopsat.sim.layout._flat_plant`)."""
     if jnp.ndim(chief) > 0:
-        # A batch in the engine's batch-inner layout: a (3, B, n), one chief per run (B, 1).
+        # A batch: one chief per run (B, 1) into (3, B, n), or per spacecraft (B·n,) into (3, B·n).
         return jnp.take_along_axis(a, chief[None], axis=-1)
     sc_axis = 1 if axis == 0 else 0
     return jnp.expand_dims(jnp.take(a, chief, axis=sc_axis), sc_axis)

@@ -67,3 +67,41 @@ def _inner_plant(plant):
         mu_m3_s2=plant.mu_m3_s2[:, None], j2=plant.j2[:, None], r_body_m=plant.r_body_m[:, None],
         chief=plant.chief[:, None],
     )
+
+
+def _flat_rows(runs_sc):
+    """``(flat, unflat)`` for a batch of ``runs_sc`` = (B, n) runs and spacecraft: ``flat``
+    makes a batch-inner (…, B, n) array one (…, B·n) row per component (a reshape of
+    contiguous memory) and passes anything else (a scalar) unchanged; ``unflat`` is its
+    inverse for an array ``flat`` made, a scalar passing unchanged.
+
+    XLA:CPU emits an elementwise loop over the array's own dimensions and vectorises the
+    innermost: over a run's n spacecraft only (five, at N = 5) in the (…, B, n) layout, over
+    all B·n of them in the flat one (docs/engine-notes.md, "Flat rows for a batch's RK4")."""
+    b, n = runs_sc
+
+    def flat(a):
+        return jnp.reshape(a, (*jnp.shape(a)[:-2], b * n)) if jnp.shape(a)[-2:] == (b, n) else a
+
+    def unflat(a):
+        return a if jnp.ndim(a) == 0 else jnp.reshape(a, (*jnp.shape(a)[:-1], b, n))
+
+    return flat, unflat
+
+
+def _flat_plant(plant, runs_sc):
+    """Batch-inner plant parameters (:func:`_inner_plant`) for the flat rows of
+    :func:`_flat_rows`: per-spacecraft leaves (…, B, n) -> (…, B·n); the per-run scalars
+    (B, 1) repeated for every spacecraft, (B·n,); the chief an index into the flat row,
+    ``b·n + chief_b`` for every spacecraft of run b (what ``plant._chief`` gathers)."""
+    b, n = runs_sc
+    flat, _ = _flat_rows(runs_sc)
+
+    def per_spacecraft(a):
+        return jnp.reshape(jnp.broadcast_to(a, (b, n)), (b * n,))
+
+    return plant._replace(
+        inertia_kgm2=flat(plant.inertia_kgm2), inertia_inv=flat(plant.inertia_inv), mass_kg=flat(plant.mass_kg),
+        mu_m3_s2=per_spacecraft(plant.mu_m3_s2), j2=per_spacecraft(plant.j2), r_body_m=per_spacecraft(plant.r_body_m),
+        chief=per_spacecraft(jnp.arange(b)[:, None] * n + plant.chief),
+    )

@@ -16,7 +16,7 @@ from coopsat.actuators.pulses import torque_between
 from coopsat.dynamics.plant import STATE_QUANTITIES, plant_derivative, state_quantities
 from coopsat.geometry.quaternion import quat_normalize
 from coopsat.sim import native
-from coopsat.sim.layout import AXIS, _inner_axes
+from coopsat.sim.layout import AXIS, _flat_plant, _flat_rows, _inner_axes
 
 
 def _quantities(system):
@@ -53,26 +53,41 @@ def _rk4(x, wrench, t, h, d_states, system, batched=False):
 
     The moving fields are packed into one (K, n) array (K: their components together), so
     that each stage is two kernels over contiguous rows rather than one per field and
-    operation (docs/engine-notes.md, "Packed RK4 stages")."""
+    operation (docs/engine-notes.md, "Packed RK4 stages"). A batch's (…, B, n) arrays are
+    integrated as flat (…, B·n) rows (:func:`~coopsat.sim.layout._flat_rows`), which XLA
+    vectorises over every run's spacecraft, handed back to the disturbances in the batch-inner
+    layout. The operations are the same; XLA's vector loops round some of them differently
+    from its scalar ones, so a run in a batch can differ from the same run alone in the last
+    bits (as a batch's regrouped sums already could)."""
     fields = _moving_fields(system)
     rows = [getattr(x, name).shape[0] for name in fields]
     cuts = list(np.cumsum(rows)[:-1])
+    plant = system.plant
+    flat = unflat = lambda a: a  # noqa: E731
+    if batched:
+        runs_sc = getattr(x, fields[0]).shape[-2:]
+        flat, unflat = _flat_rows(runs_sc)
+        plant, wrench, t, h = _flat_plant(plant, runs_sc), {c: flat(w) for c, w in wrench.items()}, flat(t), flat(h)
+    x_flat = jax.tree_util.tree_map(flat, x)
 
-    def unpack(z):
-        return x._replace(**dict(zip(fields, jnp.split(z, cuts, axis=0))))
+    def unpack(z, like):
+        return like._replace(**dict(zip(fields, jnp.split(z, cuts, axis=0))))
 
     def f(z, tt):
-        xx = unpack(z)
-        w = _disturbance_wrench(system, tt, xx, d_states, wrench, batched) if system.disturbances else wrench
-        d = plant_derivative(xx, w, system.plant, system.structure.gravity, AXIS, system.structure.attitude)
+        w = wrench
+        if system.disturbances:
+            inner = {c: unflat(v) for c, v in wrench.items()}
+            w = {c: flat(v) for c, v in
+                 _disturbance_wrench(system, unflat(tt), unpack(unflat(z), x), d_states, inner, batched).items()}
+        d = plant_derivative(unpack(z, x_flat), w, plant, system.structure.gravity, AXIS, system.structure.attitude)
         return jnp.concatenate([getattr(d, name) for name in fields], axis=0)
 
-    z = jnp.concatenate([getattr(x, name) for name in fields], axis=0)
+    z = jnp.concatenate([getattr(x_flat, name) for name in fields], axis=0)
     k1 = f(z, t)
     k2 = f(z + 0.5 * h * k1, t + 0.5 * h)
     k3 = f(z + 0.5 * h * k2, t + 0.5 * h)
     k4 = f(z + h * k3, t + h)
-    return unpack(z + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4))
+    return unpack(unflat(z + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)), x)
 
 
 def _wrench(system, pulses, level_of):

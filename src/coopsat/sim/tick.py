@@ -62,7 +62,7 @@ def _rk4(x, wrench, t, h, d_states, system, batched=False):
     fields = _moving_fields(system)
     rows = [getattr(x, name).shape[0] for name in fields]
     cuts = list(np.cumsum(rows)[:-1])
-    plant = system.plant
+    plant, wrench_inner = system.plant, wrench
     flat = unflat = lambda a: a  # noqa: E731
     if batched:
         runs_sc = getattr(x, fields[0]).shape[-2:]
@@ -76,9 +76,8 @@ def _rk4(x, wrench, t, h, d_states, system, batched=False):
     def f(z, tt):
         w = wrench
         if system.disturbances:
-            inner = {c: unflat(v) for c, v in wrench.items()}
             w = {c: flat(v) for c, v in
-                 _disturbance_wrench(system, unflat(tt), unpack(unflat(z), x), d_states, inner, batched).items()}
+                 _disturbance_wrench(system, unflat(tt), unpack(unflat(z), x), d_states, wrench_inner, batched).items()}
         d = plant_derivative(unpack(z, x_flat), w, plant, system.structure.gravity, AXIS, system.structure.attitude)
         return jnp.concatenate([getattr(d, name) for name in fields], axis=0)
 

@@ -44,10 +44,18 @@ def _block(system, state, batched):
     output of each actuator over the whole interval that follows (from the counters
     accumulated over it), so no period is left out of the record.
     """
-    after, (_, record) = _period(system, state, batched)
-    rest = system.structure.periods_per_record - 1
-    if rest > 0:
-        after = jax.lax.fori_loop(0, rest, lambda _, c: _period(system, c, batched)[0], after)
+    def period(i, c):
+        after, (_, record) = _period(system, c[0], batched)
+        keep = jax.tree_util.tree_map(lambda new, old: jnp.where(i == 0, new, old), record, c[1])
+        return after, keep
+
+    # One loop over all the interval's periods, carrying the first one's record: a first period
+    # outside the loop would put a second copy of the whole period (laws, sensors, the plant's
+    # ticks) into the program, and XLA's compile time grows with the program (docs/engine-notes.md,
+    # "One period in the program"). Carried, not stacked per period: a record is (k, n).
+    template = jax.eval_shape(lambda c: _period(system, c, batched)[1][1], state)
+    zeros = jax.tree_util.tree_map(lambda a: jnp.zeros(a.shape, a.dtype), template)
+    after, record = jax.lax.fori_loop(0, system.structure.periods_per_record, period, (state, zeros))
     interval = system.period_s * system.structure.periods_per_record
     true_state = truth(system, state.x)
     if batched:

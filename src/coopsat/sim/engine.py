@@ -33,7 +33,7 @@ from coopsat.sim.batching import CARRY_AXES, bucket_runs, prepare_batch
 from coopsat.sim.compiler_options import compile_program
 from coopsat.sim.memory import runs_per_call
 from coopsat.sim.program_cache import ProgramCache
-from coopsat.sim.programs import _final_sample, _initial_carry, _run_chunk, _run_chunk_batched
+from coopsat.sim.programs import _final_sample, _initial_carry, _run_chunk, _run_chunk_batched, _run_records
 from coopsat.sim.tick import _quantities
 
 __all__ = ["MAX_CHUNK", "NonFiniteStateError", "RunOutput", "bucket_runs", "output_shapes", "output_specs", "state_bytes",
@@ -104,8 +104,8 @@ class RunOutput:
 
 
 _COMPILED = ProgramCache(max_size=8)
-"""Compiled programs of this process (initial carry, chunk, final sample), by system structure,
-leaf shapes, chunk and batching (:mod:`coopsat.sim.program_cache`: safe under threads). Eight:
+"""Compiled programs of this process (initial carry, chunk: it takes the final sample too), by system
+structure, leaf shapes, chunk and batching (:mod:`coopsat.sim.program_cache`: safe under threads). Eight:
 a large program holds 100–300 MB of generated code, and a campaign, a sweep or a pair runs
 one to a few structures; a structure evicted and run again is traced and loaded from the
 persistent cache (about a second), not rebuilt from nothing."""
@@ -173,27 +173,22 @@ def _fresh(jitted):
 
 
 def _compile(system, n_records, chunk, batch):
-    """The run's three programs, compiled: (initial carry, chunk, final sample).
+    """The run's two programs, compiled: (initial carry, chunk); the chunks take the final
+    sample too (:func:`~coopsat.sim.programs._scan_records`).
 
-    The first and last samples are compiled too, not run op by op: op by op they dispatch (and,
-    for each new batch size, compile) hundreds of small programs (docs/engine-notes.md,
-    "Compiled first and last samples")."""
-    init, final = _fresh(_initial_carry), _fresh(_final_sample)
+    The first sample is compiled too, not run op by op: op by op it dispatches (and, for each
+    new batch size, compiles) hundreds of small programs (docs/engine-notes.md, "Compiled first
+    and last samples")."""
+    init = _fresh(_initial_carry)
     if batch is not None:
         init = jax.vmap(init, in_axes=(batch.axes,), out_axes=CARRY_AXES)
-        final = jax.vmap(final, in_axes=(batch.axes, CARRY_AXES))
     carry = jax.eval_shape(init, system)
     init = compile_program(jax.jit(init).lower(system))
     lowered = (jax.jit(_fresh(_run_chunk_batched), static_argnames=("chunk", "groups", "devices")).lower(
                    system, carry, 0, n_records, chunk, batch.groups, batch.devices)
                if batch is not None else
                jax.jit(_fresh(_run_chunk), static_argnames=("chunk",)).lower(system, carry, 0, n_records, chunk))
-    run_chunk = compile_program(lowered)
-    # The last sample reads the carry as the chunks leave it (shared among devices when a
-    # batch is).
-    carry = jax.tree_util.tree_map(lambda a, sharding: jax.ShapeDtypeStruct(a.shape, a.dtype, sharding=sharding),
-                                   carry, run_chunk.output_shardings[0])
-    return init, run_chunk, compile_program(jax.jit(final).lower(system, carry))
+    return init, compile_program(lowered)
 
 
 def _programs(system, n_records, chunk, batch):
@@ -212,44 +207,34 @@ def _progress_bar(n_records):
 
 
 def _run_chunks(programs, system, n_records, chunk, t_s, *, batched, names, cancel, bar):
-    """Run the compiled chunks, then the final sample, checking each for non-finite states.
+    """Run the compiled chunks up to and with the final sample, checking each for non-finite
+    states.
 
-    Returns (the chunks' samples, the final sample) as NumPy arrays, loop layout."""
-    init, run_chunk, final = programs
+    Returns the chunks' samples as NumPy arrays, loop layout, cut to their ``n_records + 1``
+    rows (the last chunk's padding rows dropped)."""
+    init, run_chunk = programs
+    axis = 1 if batched else 0
     chunks = []
     carry = init(system)
-    for c in range(math.ceil(n_records / chunk)):
+    for c in range(math.ceil((n_records + 1) / chunk)):
         carry, out = run_chunk(system, carry, c * chunk, n_records)
-        out = jax.tree_util.tree_map(np.asarray, out)
+        rows = min(chunk, n_records + 1 - c * chunk)
+        out = jax.tree_util.tree_map(lambda a: np.asarray(a)[(slice(None),) * axis + (slice(0, rows),)], out)
         _check_finite(out, t_s, c * chunk, batched, names)
         chunks.append(out)
         if cancel is not None:
             cancel()
         if bar is not None:
-            bar.update(min(chunk, n_records - c * chunk))
-    last = jax.tree_util.tree_map(np.asarray, final(system, carry))
-    _check_finite({k: np.expand_dims(v, 1 if batched else 0) for k, v in last.items()}, t_s, n_records, batched, names)
-    return chunks, last
+            bar.update(max(0, min(chunk, n_records - c * chunk)))
+    return chunks
 
 
-def _assemble(system, chunks, last, n_records, batch):
-    """The samples in the interface layout: ``n_records`` rows of the chunks (the last chunk
-    may run past them: its extra rows are padding), then the final sample; per-spacecraft
-    arrays back to (spacecraft, component); a batch's padding runs dropped."""
+def _assemble(system, chunks, batch):
+    """The samples in the interface layout: the chunks' rows (each chunk's samples, loop
+    layout, cut to its rows) one after the other; per-spacecraft arrays back to (spacecraft,
+    component); a batch's padding runs dropped."""
     axis = 0 if batch is None else 1
-    # The chunks' rows cut to n_records as views (the last chunk may run past them), so that
-    # each sample is copied once.
-    keep, start = [], 0
-    for ch in chunks:
-        rows = min(next(iter(ch.values())).shape[axis], n_records - start)
-        keep.append((ch, rows))
-        start += rows
-    cut = (slice(None),) * axis
-    samples = {
-        k: np.concatenate([ch[k][cut + (slice(0, rows),)] for ch, rows in keep if rows > 0]
-                          + [np.expand_dims(last[k], axis)], axis=axis)
-        for k in last
-    }
+    samples = {k: np.concatenate([ch[k] for ch in chunks], axis=axis) for k in chunks[0]}
     specs = output_specs(system)
     samples = {k: np.moveaxis(v, -1, axis + 1) if specs[k].per_spacecraft else v for k, v in samples.items()}
     if batch is not None:
@@ -286,8 +271,8 @@ def run_output(system, samples, last, t_s, *, compile_s, run_s, names=None):
     n_records = len(t_s) - 1
     _check_finite(samples, t_s, 0, False, names)
     _check_finite({k: np.expand_dims(v, 0) for k, v in last.items()}, t_s, n_records, False, names)
-    return RunOutput(t_s=t_s, samples=_assemble(system, [samples], last, n_records, None), compile_s=compile_s,
-                     run_s=run_s)
+    rows = {k: np.concatenate([samples[k], np.expand_dims(last[k], 0)]) for k in last}
+    return RunOutput(t_s=t_s, samples=_assemble(system, [rows], None), compile_s=compile_s, run_s=run_s)
 
 
 def simulate(system, n_records, record_interval_s, *, native=None, **options):
@@ -395,13 +380,13 @@ def simulate_as_built(system, n_records, record_interval_s, *, batched=False, pr
     bar = _progress_bar(n_records) if progress else None
     t0 = time.perf_counter()
     try:
-        chunks, last = _run_chunks(programs, system, n_records, chunk, t_s, batched=batched, names=names,
-                                   cancel=cancel, bar=bar)
+        chunks = _run_chunks(programs, system, n_records, chunk, t_s, batched=batched, names=names,
+                             cancel=cancel, bar=bar)
     finally:
         if bar is not None:
             bar.close()
     run_s = time.perf_counter() - t0
-    samples = _assemble(system, chunks, last, n_records, batch)
+    samples = _assemble(system, chunks, batch)
     return RunOutput(t_s=t_s, samples=samples, compile_s=compile_s, run_s=run_s)
 
 
@@ -440,7 +425,7 @@ def run_samples(system, n_records):
         Each ``(n_records + 1, n_spacecraft, k…)`` for per-spacecraft outputs (interface
         layout, as :class:`RunOutput` samples), ``(n_records + 1, k…)`` for the others.
     """
-    carry, out = _run_chunk(system, _initial_carry(system), 0, n_records, n_records)
+    carry, out = _run_records(system, _initial_carry(system), n_records)
     last = _final_sample(system, carry)
     specs = output_specs(system)
     samples = {k: jnp.concatenate([out[k], last[k][None]], axis=0) for k in last}

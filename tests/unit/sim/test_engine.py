@@ -157,17 +157,32 @@ def test_padded_batch_gives_each_run_what_the_unpadded_batch_gives():
         np.testing.assert_allclose(padded.samples[k], plain.samples[k], rtol=0, atol=1e-13)
 
 
-def test_first_and_last_samples_are_compiled_with_the_chunks():
-    """One simulate compiles three programs (first sample, chunk, last sample) and a second
-    run of the same structure reuses them all."""
+def test_a_run_is_two_programs_and_the_chunks_take_the_last_sample():
+    """One simulate compiles two programs (first sample, chunk: the chunks take the last sample
+    too) and a second run of the same structure reuses them. Every sample equals the
+    differentiable path's (run_samples: a static count of periods, the last sample compiled on
+    its own, as the engine had it), the last one with each actuator's mean output over the one
+    period after the end, not over a record interval: with the last sample inside a chunk, at
+    a chunk's end, and in a chunk of its own."""
+    import jax
+
     from coopsat.sim import engine
 
-    built = _built("consensus-sync-a", "sim.t_final_s=3.0")
+    built = _built("consensus-sync-a", "sim.t_final_s=6.0", "sim.record_interval_s=1.5")  # 4 records of 3 periods
     engine._COMPILED.clear()
     first = simulate(built.system, built.n_records, built.record_interval_s)
     (programs,) = engine._COMPILED.values()
-    assert len(programs) == 3 and all(hasattr(p, "cost_analysis") for p in programs)
+    assert len(programs) == 2 and all(hasattr(p, "cost_analysis") for p in programs)
     again = simulate(built.system, built.n_records, built.record_interval_s)
     assert again.compile_s < first.compile_s and engine._COMPILED[next(iter(engine._COMPILED))] is programs
     for k in first.samples:
         np.testing.assert_array_equal(first.samples[k], again.samples[k])
+    reference = jax.jit(engine.run_samples, static_argnums=1)(built.system, built.n_records)
+    assert set(reference) == set(first.samples)
+    torque = reference["torque"]
+    assert not np.allclose(torque[-1], torque[-2])  # the last period's mean differs from the last interval's
+    for chunk in (2, 4, 5, 8):  # 5 samples: 2+2+1, 4+1, 5, 5 of 8
+        out = simulate(built.system, built.n_records, built.record_interval_s, chunk=chunk)
+        for k, v in reference.items():
+            assert out.samples[k].shape == v.shape, k
+            np.testing.assert_allclose(out.samples[k], v, rtol=0, atol=1e-12, err_msg=f"{k}, chunk {chunk}")

@@ -119,10 +119,10 @@ def _run_chunk_batched(system, carry, first_record, n_records, chunk, groups=1, 
     """``chunk`` record intervals of a batch (batch-first System, shared ``dt_s`` and tick).
 
     Takes and returns the carry batch-first, as the vmapped :func:`_initial_carry` makes it;
-    samples ``(B, chunk, …)``. With
-    ``groups`` > 1 (B a multiple of it), the runs are integrated group after group
-    (``lax.map``), each group for the whole chunk; with ``devices`` > 1 (``groups`` a multiple
-    of it) the groups are shared among the first ``devices`` devices (``jax.shard_map``).
+    samples ``(B, chunk, …)``. With ``groups`` > 1 (B a multiple of it), the runs are
+    integrated group after group (``lax.map``), each group for the whole chunk; with
+    ``devices`` > 1 (``groups`` a multiple of it) the groups are shared among the first
+    ``devices`` devices (``jax.shard_map``).
     """
     if groups == 1:
         return _run_group(system, carry, first_record, n_records, chunk)

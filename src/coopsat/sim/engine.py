@@ -106,9 +106,9 @@ class RunOutput:
 _COMPILED = ProgramCache(max_size=8)
 """Compiled programs of this process (initial carry, chunk: it takes the final sample too), by
 system structure, leaf shapes, chunk and batching (:mod:`coopsat.sim.program_cache`: safe under
-threads). Eight: a large program holds 100–300 MB of generated code, and a campaign, a sweep or a pair runs
-one to a few structures; a structure evicted and run again is traced and loaded from the
-persistent cache (about a second), not rebuilt from nothing."""
+threads). Eight: a large program holds 100–300 MB of generated code, and a campaign, a sweep or
+a pair runs one to a few structures; a structure evicted and run again is traced and loaded from
+the persistent cache (about a second), not rebuilt from nothing."""
 
 MAX_CHUNK = 4096
 """Most record intervals per compiled call: bounds the padding of the last chunk (memory)."""

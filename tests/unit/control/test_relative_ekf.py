@@ -179,11 +179,13 @@ def _navigation_run(measurements, extra):
     return scenario, coopsat.run(scenario).dataset
 
 
+# Every measurement in its order, and the range alone (no position fix), in the quick suite; the
+# other subsets are one compiled program each (about 40 s of a CI worker) and run in the slow one.
 @pytest.mark.parametrize("measurements, extra", [
-    (["gnss", "isl-range"], {}),
-    (["gnss"], {}),
+    pytest.param(["gnss", "isl-range"], {}, marks=pytest.mark.slow),
+    pytest.param(["gnss"], {}, marks=pytest.mark.slow),
     (["isl-range"], _OFF_AXIS),
-    (["gnss", "camera-bearing"], {}),
+    pytest.param(["gnss", "camera-bearing"], {}, marks=pytest.mark.slow),
     (["gnss", "isl-range", "camera-bearing"], {}),
 ], ids=["gnss+isl", "gnss", "isl", "gnss+bearing", "gnss+isl+bearing"])
 def test_recorded_filter_matches_an_independent_numpy_ekf(measurements, extra):

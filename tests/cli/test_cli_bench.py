@@ -76,3 +76,26 @@ def test_on_a_gpu_the_bench_adds_its_section():
     assert rows == [("torque-free", 100_000, "none", None), ("consensus", 100_000, "consensus-sync", None),
                     ("torque-free", 1_000_000, "none", None), ("consensus", 1_000_000, "consensus-sync", None),
                     ("consensus", 5, "consensus-sync", 10_000), ("consensus", 5, "consensus-sync", 100_000)]
+
+
+def test_on_a_gpu_the_bench_quotes_no_cpu_ceiling(monkeypatch, capsys):
+    """On a GPU the ceiling column (a numba loop on this machine's cores) is not measured: it
+    bounds no GPU row, and at the GPU section's sizes it would take minutes of the CPU a row."""
+    import types
+
+    import jax
+    import pytest
+
+    device = types.SimpleNamespace(platform="gpu", device_kind="NVIDIA H100", memory_stats=lambda: {"bytes_limit": 80 * 2**30})
+    monkeypatch.setattr(jax, "devices", lambda *args: [device])
+    monkeypatch.setattr(bench, "load_ceiling", lambda: pytest.fail("the CPU ceiling was loaded for a GPU"))
+    monkeypatch.setattr(bench, "too_big", lambda *args, **kwargs: None)
+    measured = []
+    monkeypatch.setattr(bench, "measure", lambda n, controller, ticks, **kw: measured.append((n, kw["batch"])) or (0.1, 0.2, 0.5, 1e9))
+    bench.run_benchmarks(sizes=(1000,), steps=2000, batch=0, native=False, orbit_sizes=())
+    out = capsys.readouterr().out
+    assert "(no ceiling column: the ceiling is a CPU loop; JAX runs on gpu)" in out
+    assert "GPU section: NVIDIA H100, 80 GiB" in out
+    assert (100_000, None) in measured and (5, 100_000) in measured
+    consensus = [line.split() for line in out.splitlines() if line.startswith("consensus ")]
+    assert consensus and all(len(r) == 8 for r in consensus)  # no ceiling columns after M sc-steps/s

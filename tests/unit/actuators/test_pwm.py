@@ -15,13 +15,22 @@ T, T_MAX, TAU = 0.5, 0.05, 0.05
         (0.05, 0.5),  # T|u|/T_max = T: saturated, fires the whole period
         (-0.2, 0.5),  # beyond saturation
         (0.02, 0.2),  # proportional band: T|u|/T_max = 0.2 s
-        (-0.005, 0.05),  # exactly the minimum pulse: fires
         (0.0049, 0.0),  # just below the minimum pulse: nothing
         (0.0, 0.0),
     ],
 )
 def test_on_time_branches(u, expected):
     assert float(pwm_on_time_s(np.array([[u, 0.0, 0.0]]), T, T_MAX, TAU)[0, 0]) == pytest.approx(expected, abs=1e-15)
+
+
+def test_exactly_the_minimum_pulse_fires():
+    """At T|u|/T_max = τ the pulse fires (eq. (10)'s ≥), a hair below it does not. Dyadic values,
+    so that T·|u|/T_max is exact in any order a compiler evaluates it: with the paper's numbers
+    (0.5·0.005/0.05) the IEEE result is 0.049999999999999996, below τ = 0.05, and jax 0.10 and
+    0.12 round that expression differently (0.05 and 0.049999999999999996)."""
+    t_on = pwm_on_time_s(np.array([[-0.0625, 0.0625 * (1 - 2.0**-40), 0.0]]), 0.5, 0.25, 0.125)
+    assert float(t_on[0, 0]) == 0.125
+    assert float(t_on[0, 1]) == 0.0
 
 
 def test_proportional_band_delivers_the_commanded_impulse():

@@ -224,7 +224,8 @@ def test_a_campaign_on_a_hand_started_scheduler_replays_bit_for_bit_here(camp, t
     from coopsat.sim.native.capability import version_problem
 
     # Outside the kernels' jax range no run probes (and tests/conftest.py switches them off).
-    why = ("no verdict in this process",) if version_problem() is None else (version_problem(), "COOPSAT_NATIVE=0")
+    outside = version_problem()
+    why = ("no verdict in this process",) if outside is None else (outside, "COOPSAT_NATIVE=0")
     for b in range(2):
         stored = prov.read_provenance(batch_file(tmp_path / "sched", b))
         assert stored["native"] is False and stored["native_reason"].startswith(why), stored

@@ -12,11 +12,11 @@ import pytest
 from coopsat.sim.native import capability, ffi
 
 
+# The tests of a probe's verdict need the kernels' jax range: CI's environments are inside it
+# (.ci/run checks); a newer jax (Python 3.12 and later get 0.12) is not, and its runs never probe.
 OUTSIDE_RANGE = capability.version_problem()
-in_range = pytest.mark.skipif(OUTSIDE_RANGE is not None, reason=f"{OUTSIDE_RANGE}: the native kernels' verdict is tested inside "
-                              "their range (outside it every run takes the XLA path, tested by the rest of the suite)")
-"""The tests of a probe's verdict: CI's environments are inside the range (.ci/run checks), a newer jax
-(Python 3.12 and later get 0.12) is not, and its runs never probe."""
+OUTSIDE_REASON = f"{OUTSIDE_RANGE}: no verdict is probed or kept outside the native kernels' range"
+in_range = pytest.mark.skipif(OUTSIDE_RANGE is not None, reason=OUTSIDE_REASON)
 
 
 @pytest.fixture(autouse=True)
@@ -265,7 +265,7 @@ def verdict_dir(tmp_path, monkeypatch):
     from coopsat.core import runtime
 
     if OUTSIDE_RANGE is not None:
-        pytest.skip(f"{OUTSIDE_RANGE}: no verdict is probed or kept outside the native kernels' range")
+        pytest.skip(OUTSIDE_REASON)
 
     monkeypatch.setattr(runtime, "persistent_cache_dir", lambda kind: tmp_path / f"coopsat-{kind}")
     monkeypatch.delenv(capability.ENV, raising=False)

@@ -27,4 +27,7 @@ for f in .whl-build/all/*.whl; do
 done
 found=$(ls .whl | wc -l)
 [ "$found" -eq "${#carry[@]}" ] || { echo "wheels.sh: ${#carry[@]} packages in carry.txt, $found wheels found: $(ls .whl)" >&2; exit 1; }
+# With the device tool's page of the image's packages at hand: nothing else is missing there.
+kinds=${KINDS_MD:-/work/.library/device/KINDS.md}
+if [ -f "$kinds" ]; then "$py" benchmarks/gpu/closure.py .whl "$kinds"; fi
 echo "$found wheels in .whl ($(du -sh .whl | cut -f1)); carry it: run(command='bash benchmarks/gpu/check.sh', carry=['.whl'])"

@@ -2,10 +2,10 @@
 coopsat needs on CPython 3.12 for Linux x86_64, so that check.sh's install (``--no-deps``:
 there is no registry there) does not fail on the device's time.
 
-    python benchmarks/gpu/closure.py .whl [KINDS.md]
+    python benchmarks/gpu/closure.py .whl KINDS.md
 
-KINDS.md is the device tool's page of the image's packages (its "Packages:" line); by default
-/work/.library/device/KINDS.md. Prints one line: what is missing, or that nothing is but the
+KINDS.md is the device tool's page of the image's packages (its "Packages:" line; wheels.sh
+passes /work/.library/device/KINDS.md). Prints one line: what is missing, or that nothing is but the
 packages carry.txt leaves out on purpose (the LMI solvers). Exit 1 when anything else is missing.
 Names only: KINDS.md lists the image's packages without versions, so a requirement the image
 holds at too old a version shows only there (``pip show NAME`` there costs little device time).
@@ -46,17 +46,17 @@ def wheel_requirements(folder):
 
 
 def missing(carried, image):
-    """(package, requirement) pairs of the carried wheels (their base requirements: no extras)
+    """(package, Requirement) pairs of the carried wheels (their base requirements: no extras)
     that neither the carried wheels nor the image hold."""
     have = set(carried) | image
-    return sorted((name, str(req)) for name, reqs in carried.items() for req in reqs
-                  if (req.marker is None or req.marker.evaluate({**MARKERS, "extra": ""}))
-                  and canonicalize_name(req.name) not in have)
+    return [(name, req) for name, reqs in sorted(carried.items()) for req in reqs
+            if (req.marker is None or req.marker.evaluate({**MARKERS, "extra": ""}))
+            and canonicalize_name(req.name) not in have]
 
 
-def main(folder=".whl", kinds_md="/work/.library/device/KINDS.md"):
+def main(folder, kinds_md):
     gaps = missing(wheel_requirements(folder), image_packages(kinds_md))
-    unexpected = [g for g in gaps if canonicalize_name(Requirement(g[1]).name) not in LEFT_OUT]
+    unexpected = [(name, req) for name, req in gaps if canonicalize_name(req.name) not in LEFT_OUT]
     if unexpected:
         print("closure.py: missing on the device: " + "; ".join(f"{req} (for {name})" for name, req in unexpected))
         return 1
